@@ -1,0 +1,5 @@
+"""Actuator models and gain helpers."""
+
+from agile.actuators.implicit import ImplicitActuatorCfg, JointValue
+
+__all__ = ["ImplicitActuatorCfg", "JointValue"]

@@ -1,0 +1,5 @@
+"""Manager-based RL environment."""
+
+from agile.rl_env.env import ManagerBasedRLEnv, ManagerBasedRLEnvCfg
+
+__all__ = ["ManagerBasedRLEnv", "ManagerBasedRLEnvCfg"]

@@ -1,0 +1,84 @@
+"""Action manager: splits the policy action among action terms, processes once per env step, applies."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import torch
+
+from agile.utils.config import ConfigError
+
+
+class ActionTerm:
+    """Base of action terms. `cfg.class_type` names the term class."""
+
+    def __init__(self, cfg, env):
+        self.cfg = cfg
+        self.env = env
+
+    @property
+    def action_dim(self) -> int:
+        raise NotImplementedError
+
+    def process_actions(self, actions: torch.Tensor) -> None:
+        raise NotImplementedError
+
+    def apply_actions(self) -> None:
+        raise NotImplementedError
+
+    def reset(self, env_mask: torch.Tensor) -> None:
+        pass
+
+
+class ActionManager:
+    def __init__(self, cfg, env):
+        self.env = env
+        self.terms: dict[str, ActionTerm] = {}
+        for f in dataclasses.fields(cfg):
+            term_cfg = getattr(cfg, f.name)
+            if term_cfg is None:
+                continue
+            class_type = getattr(term_cfg, "class_type", None)
+            if class_type is None:
+                raise ConfigError(f"task '{env.task_name}', action term '{f.name}': cfg has no class_type")
+            try:
+                self.terms[f.name] = class_type(term_cfg, env)
+            except ValueError as err:
+                raise ConfigError(f"task '{env.task_name}', action term '{f.name}': {err}") from None
+        self.total_action_dim = sum(t.action_dim for t in self.terms.values())
+        n = env.num_envs
+        self.action = torch.zeros(n, self.total_action_dim, device=env.device)
+        self.prev_action = torch.zeros_like(self.action)
+        self.prev_prev_action = torch.zeros_like(self.action)
+
+    @property
+    def active_terms(self) -> list[str]:
+        return list(self.terms)
+
+    def get_term(self, name: str) -> ActionTerm:
+        if name not in self.terms:
+            raise KeyError(f"no action term '{name}'. Terms: {self.active_terms}")
+        return self.terms[name]
+
+    def process_action(self, action: torch.Tensor) -> None:
+        if action.shape != self.action.shape:
+            raise ValueError(f"action shape {tuple(action.shape)} != expected {tuple(self.action.shape)}")
+        self.prev_prev_action.copy_(self.prev_action)
+        self.prev_action.copy_(self.action)
+        self.action.copy_(action)
+        start = 0
+        for term in self.terms.values():
+            term.process_actions(self.action[:, start:start + term.action_dim])
+            start += term.action_dim
+
+    def apply_action(self) -> None:
+        for term in self.terms.values():
+            term.apply_actions()
+
+    def reset(self, env_mask: torch.Tensor) -> dict:
+        m = env_mask.unsqueeze(-1)
+        for buf in (self.action, self.prev_action, self.prev_prev_action):
+            buf.masked_fill_(m, 0.0)
+        for term in self.terms.values():
+            term.reset(env_mask)
+        return {}

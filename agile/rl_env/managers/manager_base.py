@@ -1,0 +1,71 @@
+"""What every manager shares: collecting terms from a config and preparing their functions."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import inspect
+
+from agile.rl_env.managers.term_cfg import ManagerTermBase, SceneEntityCfg
+from agile.utils.config import ConfigError, callable_name
+
+
+def collect_terms(cfg, term_type) -> dict:
+    """{field name: term cfg} for the fields of `cfg` that hold a `term_type` (None disables a term)."""
+    if cfg is None:
+        return {}
+    terms = {}
+    for f in dataclasses.fields(cfg):
+        value = getattr(cfg, f.name)
+        if isinstance(value, term_type):
+            terms[f.name] = value
+    return terms
+
+
+def prepare_term(env, manager: str, name: str, term_cfg, skip_first: int = 1):
+    """Resolve entity selectors in params, instantiate class terms and check the params fit the function.
+
+    Errors name the task, manager, term and field.
+    """
+    where = f"task '{env.task_name}', {manager} term '{name}'"
+    func = term_cfg.func
+    if func is None:
+        raise ConfigError(f"{where}: 'func' is not set")
+    if not inspect.isclass(func):
+        # entity selectors left at their defaults are resolved too (a copy per term)
+        for p in list(inspect.signature(func).parameters.values())[skip_first:]:
+            if isinstance(p.default, SceneEntityCfg) and p.name not in term_cfg.params:
+                term_cfg.params[p.name] = copy.deepcopy(p.default)
+    for key, value in term_cfg.params.items():
+        if isinstance(value, SceneEntityCfg):
+            try:
+                value.resolve(env)
+            except (ValueError, KeyError) as err:
+                raise ConfigError(f"{where}, param '{key}': {err}") from None
+    if inspect.isclass(func):
+        if not issubclass(func, ManagerTermBase):
+            raise ConfigError(f"{where}: class {callable_name(func)} must derive from ManagerTermBase")
+        try:
+            func = func(term_cfg, env)
+        except (ValueError, KeyError) as err:
+            raise ConfigError(f"{where}: {err}") from None
+        signature = inspect.signature(func.__call__)
+    else:
+        signature = inspect.signature(func)
+    params = list(signature.parameters.values())[skip_first:]
+    accepts_kwargs = any(p.kind is p.VAR_KEYWORD for p in params)
+    names = {p.name for p in params}
+    for key in term_cfg.params:
+        if key not in names and not accepts_kwargs:
+            raise ConfigError(f"{where}: '{callable_name(term_cfg.func)}' has no parameter '{key}' "
+                              f"(parameters: {sorted(names)})")
+    missing = [p.name for p in params if p.default is p.empty and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
+               and p.name not in term_cfg.params]
+    if missing:
+        raise ConfigError(f"{where}: missing params {missing} for '{callable_name(term_cfg.func)}'")
+    return func
+
+
+def reset_term(func, env_mask) -> None:
+    if isinstance(func, ManagerTermBase):
+        func.reset(env_mask)

@@ -1,0 +1,84 @@
+"""Observation manager: groups of terms with noise, clip, scale and history, returned as a TensorDict."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import torch
+from tensordict import TensorDict
+
+from agile.rl_env.managers.manager_base import collect_terms, prepare_term, reset_term
+from agile.rl_env.managers.term_cfg import ObsGroup, ObsTerm
+
+
+class _TermHistory:
+    """The last H values of one term, oldest first; a reset env's history is refilled with its next value."""
+
+    def __init__(self, length: int, num_envs: int, dim: int, device):
+        self.buffer = torch.zeros(num_envs, length, dim, device=device)
+        self.needs_fill = torch.ones(num_envs, dtype=torch.bool, device=device)
+
+    def push(self, value: torch.Tensor) -> torch.Tensor:
+        rolled = torch.cat((self.buffer[:, 1:], value.unsqueeze(1)), dim=1)
+        filled = value.unsqueeze(1).expand_as(self.buffer)
+        self.buffer.copy_(torch.where(self.needs_fill[:, None, None], filled, rolled))
+        self.needs_fill.zero_()
+        return self.buffer.flatten(1)
+
+    def reset(self, env_mask: torch.Tensor) -> None:
+        self.needs_fill |= env_mask
+
+
+class ObservationManager:
+    def __init__(self, cfg, env):
+        self.env = env
+        self.group_cfgs: dict[str, ObsGroup] = {
+            f.name: getattr(cfg, f.name) for f in dataclasses.fields(cfg) if isinstance(getattr(cfg, f.name), ObsGroup)}
+        self.term_cfgs: dict[str, dict[str, ObsTerm]] = {}
+        self.funcs: dict[str, dict] = {}
+        self.histories: dict[str, dict[str, _TermHistory]] = {}
+        self.term_dims: dict[str, dict[str, int]] = {}
+        for group_name, group in self.group_cfgs.items():
+            terms = collect_terms(group, ObsTerm)
+            self.term_cfgs[group_name] = terms
+            self.funcs[group_name] = {n: prepare_term(env, f"observation '{group_name}'", n, t) for n, t in terms.items()}
+            self.histories[group_name] = {}
+            self.term_dims[group_name] = {}
+            for name, term in terms.items():
+                dim = self.funcs[group_name][name](env, **term.params).shape[-1]
+                length = group.history_length if group.history_length is not None else term.history_length
+                if length > 0:
+                    self.histories[group_name][name] = _TermHistory(length, env.num_envs, dim, env.device)
+                self.term_dims[group_name][name] = dim * max(length, 1)
+
+    @property
+    def group_dims(self) -> dict[str, int]:
+        return {g: sum(d.values()) for g, d in self.term_dims.items()}
+
+    def compute_group(self, group_name: str) -> torch.Tensor | TensorDict:
+        group = self.group_cfgs[group_name]
+        values = {}
+        for name, term in self.term_cfgs[group_name].items():
+            obs = self.funcs[group_name][name](self.env, **term.params)
+            if group.enable_corruption and term.noise is not None:
+                obs = obs + torch.rand_like(obs) * (term.noise.n_max - term.noise.n_min) + term.noise.n_min
+            if term.clip is not None:
+                obs = obs.clamp(term.clip[0], term.clip[1])
+            if term.scale is not None:
+                obs = obs * term.scale
+            history = self.histories[group_name].get(name)
+            values[name] = history.push(obs) if history is not None else obs
+        if group.concatenate_terms:
+            return torch.cat(list(values.values()), dim=-1)
+        return TensorDict(values, batch_size=[self.env.num_envs])
+
+    def compute(self) -> TensorDict:
+        return TensorDict({g: self.compute_group(g) for g in self.group_cfgs}, batch_size=[self.env.num_envs])
+
+    def reset(self, env_mask: torch.Tensor) -> dict:
+        for group_name in self.group_cfgs:
+            for history in self.histories[group_name].values():
+                history.reset(env_mask)
+            for func in self.funcs[group_name].values():
+                reset_term(func, env_mask)
+        return {}

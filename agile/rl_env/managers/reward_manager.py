@@ -1,0 +1,56 @@
+"""Reward manager: weighted sum of terms, times the env step dt, with per-term episode sums."""
+
+from __future__ import annotations
+
+import torch
+
+from agile.rl_env.managers.manager_base import collect_terms, prepare_term, reset_term
+from agile.rl_env.managers.term_cfg import RewTerm
+
+
+class RewardManager:
+    def __init__(self, cfg, env):
+        self.env = env
+        self.term_cfgs = collect_terms(cfg, RewTerm)
+        self.funcs = {n: prepare_term(env, "reward", n, t) for n, t in self.term_cfgs.items()}
+        n = env.num_envs
+        self.reward_buf = torch.zeros(n, device=env.device)
+        self.episode_sums = {name: torch.zeros(n, device=env.device) for name in self.term_cfgs}
+        self.step_reward = {name: torch.zeros(n, device=env.device) for name in self.term_cfgs}
+        """Each term's weighted contribution of the last step (before dt), for debugging and GUIs."""
+
+    @property
+    def active_terms(self) -> list[str]:
+        return list(self.term_cfgs)
+
+    def get_term_cfg(self, name: str) -> RewTerm:
+        if name not in self.term_cfgs:
+            raise KeyError(f"no reward term '{name}'. Terms: {self.active_terms}")
+        return self.term_cfgs[name]
+
+    def set_term_weight(self, name: str, weight: float) -> None:
+        self.get_term_cfg(name).weight = float(weight)
+
+    def compute(self, dt: float) -> torch.Tensor:
+        self.reward_buf.zero_()
+        for name, cfg in self.term_cfgs.items():
+            if cfg.weight == 0.0:
+                self.step_reward[name].zero_()
+                continue
+            value = self.funcs[name](self.env, **cfg.params) * cfg.weight
+            self.step_reward[name][:] = value
+            self.reward_buf += value * dt
+            self.episode_sums[name] += value * dt
+        return self.reward_buf
+
+    def reset(self, env_mask: torch.Tensor) -> dict[str, torch.Tensor]:
+        """Zero the sums of finished episodes; return their per-second means (over the finished envs)."""
+        count = env_mask.sum().clamp(min=1)
+        max_len_s = self.env.max_episode_length_s
+        log = {}
+        for name, sums in self.episode_sums.items():
+            log[f"Episode_Reward/{name}"] = torch.where(env_mask, sums, 0.0).sum() / count / max_len_s
+            sums.masked_fill_(env_mask, 0.0)
+        for func in self.funcs.values():
+            reset_term(func, env_mask)
+        return log

@@ -1,0 +1,110 @@
+"""Term configurations: what a task file declares for each manager."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import field
+from typing import Any
+
+from agile.utils.config import configclass
+
+
+@configclass
+class SceneEntityCfg:
+    """Joints or bodies of the robot, selected by name regexes; resolved to indices when the env is built."""
+
+    name: str = "robot"
+    joint_names: str | list[str] | None = None
+    body_names: str | list[str] | None = None
+    preserve_order: bool = False
+    # resolved by the manager (not to be set by hand)
+    joint_ids: Any = None
+    body_ids: Any = None
+
+    def resolve(self, env) -> None:
+        robot = env.scene[self.name]
+        self.joint_ids = slice(None)
+        self.body_ids = slice(None)
+        if self.joint_names is not None:
+            ids, _ = robot.find_joints(self.joint_names, self.preserve_order)
+            if ids != list(range(robot.num_joints)):
+                self.joint_ids = ids
+        if self.body_names is not None:
+            ids, _ = robot.find_bodies(self.body_names, self.preserve_order)
+            if ids != list(range(robot.num_bodies)):
+                self.body_ids = ids
+
+
+@configclass
+class UniformNoiseCfg:
+    """Additive noise drawn uniformly from [n_min, n_max]."""
+
+    n_min: float = -1.0
+    n_max: float = 1.0
+
+
+def Unoise(n_min: float, n_max: float) -> UniformNoiseCfg:  # noqa: N802 (Isaac Lab's name)
+    return UniformNoiseCfg(n_min=n_min, n_max=n_max)
+
+
+@configclass
+class ObsTerm:
+    func: Callable | None = None
+    params: dict[str, Any] = field(default_factory=dict)
+    noise: UniformNoiseCfg | None = None
+    clip: tuple[float, float] | None = None
+    scale: float | None = None
+    history_length: int = 0
+    """0: no history. H > 0: the last H values, oldest first, flattened per term."""
+
+
+@configclass
+class ObsGroup:
+    """Base class of an observation group; its ObsTerm fields are the terms, in order."""
+
+    concatenate_terms: bool = True
+    """True: the group is one (N, D) tensor. False: a TensorDict of per-term tensors."""
+    enable_corruption: bool = False
+    history_length: int | None = None
+    """If set, overrides every term's history length."""
+
+
+@configclass
+class RewTerm:
+    func: Callable | None = None
+    weight: float = 0.0
+    params: dict[str, Any] = field(default_factory=dict)
+
+
+@configclass
+class DoneTerm:
+    func: Callable | None = None
+    params: dict[str, Any] = field(default_factory=dict)
+    time_out: bool = False
+    """Time-outs truncate the episode (the value bootstraps); all other terms are failures."""
+
+
+@configclass
+class EventTerm:
+    func: Callable | None = None
+    mode: str = "reset"
+    """'startup' (once, at build), 'reset' (every reset) or 'interval' (every interval_range_s per env)."""
+    params: dict[str, Any] = field(default_factory=dict)
+    interval_range_s: tuple[float, float] | None = None
+
+
+@configclass
+class CurrTerm:
+    func: Callable | None = None
+    params: dict[str, Any] = field(default_factory=dict)
+
+
+class ManagerTermBase:
+    """Base of stateful terms (a class in `func`): built once with (cfg, env), then called like a function."""
+
+    def __init__(self, cfg, env):
+        self.cfg = cfg
+        self.env = env
+
+    def reset(self, env_mask) -> None:
+        """Clear per-env state where env_mask (N,) is True."""

@@ -1,0 +1,9 @@
+"""The shared term library: import as `from agile.rl_env import mdp` and use `mdp.<term>` in task files."""
+
+from agile.rl_env.mdp.actions import *  # noqa: F401,F403
+from agile.rl_env.mdp.commands import *  # noqa: F401,F403
+from agile.rl_env.mdp.curriculums import *  # noqa: F401,F403
+from agile.rl_env.mdp.events import *  # noqa: F401,F403
+from agile.rl_env.mdp.observations import *  # noqa: F401,F403
+from agile.rl_env.mdp.rewards import *  # noqa: F401,F403
+from agile.rl_env.mdp.terminations import *  # noqa: F401,F403

@@ -1,0 +1,67 @@
+"""Joint position action: target = action × scale + offset, clipped, written to the PD targets."""
+
+from __future__ import annotations
+
+from dataclasses import field
+
+import torch
+
+from agile.rl_env.managers import ActionTerm
+from agile.sim.names import resolve_values
+from agile.utils.config import configclass
+
+
+class JointPositionAction(ActionTerm):
+    def __init__(self, cfg: JointPositionActionCfg, env):
+        super().__init__(cfg, env)
+        robot = env.scene[cfg.asset_name]
+        self.robot = robot
+        self.joint_ids, self.joint_names = robot.find_joints(cfg.joint_names, cfg.preserve_order)
+        n, dim = env.num_envs, len(self.joint_ids)
+        self.scale = self._per_joint(cfg.scale, 1.0)
+        self.offset = robot.default_joint_pos[:, self.joint_ids].clone() if cfg.use_default_offset \
+            else torch.zeros(n, dim, device=env.device)
+        self.clip = None
+        if cfg.clip is not None:
+            clip = cfg.clip if isinstance(cfg.clip, dict) else {".*": tuple(cfg.clip)}
+            low = {k: v[0] for k, v in clip.items()}
+            high = {k: v[1] for k, v in clip.items()}
+            self.clip = (self._per_joint(low, -float("inf")), self._per_joint(high, float("inf")))
+        self.raw_actions = torch.zeros(n, dim, device=env.device)
+        self.processed_actions = self.offset.clone()
+
+    def _per_joint(self, value, default: float) -> torch.Tensor:
+        out = torch.full((len(self.joint_ids),), default, device=self.env.device)
+        for i, v in resolve_values(value, self.joint_names).items():
+            out[i] = v
+        return out
+
+    @property
+    def action_dim(self) -> int:
+        return len(self.joint_ids)
+
+    def process_actions(self, actions: torch.Tensor) -> None:
+        self.raw_actions.copy_(actions)
+        processed = actions * self.scale + self.offset
+        if self.clip is not None:
+            processed = torch.maximum(torch.minimum(processed, self.clip[1]), self.clip[0])
+        self.processed_actions.copy_(processed)
+
+    def apply_actions(self) -> None:
+        self.robot.joint_pos_target[:, self.joint_ids] = self.processed_actions
+
+    def reset(self, env_mask: torch.Tensor) -> None:
+        self.raw_actions.masked_fill_(env_mask.unsqueeze(-1), 0.0)
+
+
+@configclass
+class JointPositionActionCfg:
+    """Isaac Lab semantics: `clip` bounds the processed target [rad], after scale and offset."""
+
+    class_type: type = JointPositionAction
+    asset_name: str = "robot"
+    joint_names: list[str] = field(default_factory=lambda: [".*"])
+    scale: float | dict[str, float] = 1.0
+    use_default_offset: bool = True
+    clip: tuple[float, float] | dict[str, tuple[float, float]] | None = None
+    preserve_order: bool = False

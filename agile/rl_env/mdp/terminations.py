@@ -1,0 +1,26 @@
+"""Termination terms: functions (env, **params) -> (N,) bool tensors."""
+
+from __future__ import annotations
+
+import torch
+
+from agile.rl_env.managers import SceneEntityCfg
+from agile.rl_env.mdp.rewards import _body_projected_gravity
+
+ROBOT = SceneEntityCfg("robot")
+
+
+def time_out(env) -> torch.Tensor:
+    return env.episode_length_buf >= env.max_episode_length
+
+
+def bad_orientation(env, limit_angle_rad: float, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
+    """Any selected body (root if none) tilted more than limit_angle_rad from upright."""
+    gravity_z = _body_projected_gravity(env, asset_cfg)[..., 2]
+    tilt = torch.acos((-gravity_z).clamp(-1.0, 1.0))
+    return (tilt > limit_angle_rad).any(dim=1)
+
+
+def root_height_below_minimum(env, minimum_height_m: float, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
+    """Root below minimum_height_m above the flat ground (AGILE `illegal_base_height` on flat ground)."""
+    return env.scene[asset_cfg.name].root_pos_w[:, 2] < minimum_height_m

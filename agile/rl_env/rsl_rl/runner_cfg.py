@@ -1,0 +1,70 @@
+"""RSL-RL (rsl-rl-lib 5.5.1) runner configs as dataclasses; `to_rsl_rl_dict` gives what the runner takes."""
+
+from __future__ import annotations
+
+from dataclasses import field
+
+from agile.utils.config import configclass, to_dict
+
+
+@configclass
+class DistributionCfg:
+    class_name: str = "GaussianDistribution"
+    init_std: float = 1.0
+    std_type: str = "scalar"
+
+
+@configclass
+class MlpModelCfg:
+    class_name: str = "MLPModel"
+    hidden_dims: list[int] = field(default_factory=lambda: [512, 256, 128])
+    activation: str = "elu"
+    obs_normalization: bool = False
+    distribution_cfg: DistributionCfg | None = None
+
+
+@configclass
+class PpoAlgorithmCfg:
+    class_name: str = "PPO"
+    learning_rate: float = 1.0e-3
+    num_learning_epochs: int = 5
+    num_mini_batches: int = 4
+    schedule: str = "adaptive"
+    desired_kl: float = 0.01
+    gamma: float = 0.99
+    lam: float = 0.95
+    clip_param: float = 0.2
+    entropy_coef: float = 0.005
+    value_loss_coef: float = 1.0
+    max_grad_norm: float = 1.0
+    use_clipped_value_loss: bool = True
+
+
+@configclass
+class PpoRunnerCfg:
+    experiment_name: str = "agile"
+    run_name: str = ""
+    seed: int = 42
+    num_steps_per_env: int = 24
+    max_iterations: int = 1000
+    save_interval: int = 100
+    logger: str = "tensorboard"
+    obs_groups: dict[str, list[str]] = field(default_factory=lambda: {"actor": ["policy"], "critic": ["critic"]})
+    clip_actions: float | None = None
+    algorithm: PpoAlgorithmCfg = field(default_factory=PpoAlgorithmCfg)
+    actor: MlpModelCfg = field(default_factory=lambda: MlpModelCfg(distribution_cfg=DistributionCfg()))
+    critic: MlpModelCfg = field(default_factory=MlpModelCfg)
+
+
+RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "clip_actions")
+
+
+def to_rsl_rl_dict(cfg: PpoRunnerCfg) -> dict:
+    """The train_cfg dict of `rsl_rl.runners.OnPolicyRunner` (keys of ours that it does not know removed)."""
+    d = to_dict(cfg)
+    for key in RUNNER_ONLY_KEYS:
+        d.pop(key, None)
+    for model in ("actor", "critic"):
+        if d[model].get("distribution_cfg") is None:
+            d[model].pop("distribution_cfg", None)
+    return d

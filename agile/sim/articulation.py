@@ -1,0 +1,137 @@
+"""Zero-copy torch access to one replicated robot, and the one write path into its state."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import newton
+import torch
+import warp as wp
+
+from agile.sim.names import resolve_names
+from agile.utils.math import quat_rotate, quat_rotate_inverse, yaw_from_quat
+
+GRAVITY_DIR_W = (0.0, 0.0, -1.0)
+
+
+class Articulation:
+    """A floating-base robot replicated once per world.
+
+    Every tensor named `*_w`/`*_b` (world/body frame) is either a view of a Newton array
+    (`root_pose_w`, `joint_pos`, `body_pose_w`, ...), so reading it costs nothing and writing it writes
+    the simulation, or a derived quantity refreshed by `update()` once per env step.
+    Quaternions are (x, y, z, w). Root linear velocities are those of the root link origin.
+    """
+
+    def __init__(self, model: newton.Model, state: newton.State, control: newton.Control,
+                 joint_names: list[str], body_names: list[str], step_dt_s: float):
+        n = model.world_count
+        self.num_envs = n
+        self.joint_names = list(joint_names)
+        self.body_names = list(body_names)
+        self.num_joints = len(joint_names)
+        self.num_bodies = len(body_names)
+        self.device = torch.device(wp.device_to_torch(model.device))
+        self._model = model
+        self._state = state
+        self._step_dt_s = step_dt_s
+
+        coords = wp.to_torch(state.joint_q).view(n, -1)
+        dofs = wp.to_torch(state.joint_qd).view(n, -1)
+        if coords.shape[1] - 7 != dofs.shape[1] - 6 or dofs.shape[1] - 6 != self.num_joints:
+            raise ValueError(
+                f"only robots with a free root joint and 1-DoF joints are supported; got {coords.shape[1]} "
+                f"coordinates and {dofs.shape[1]} DoFs per world for joints {self.joint_names}")
+        # -- views of the state (one source of truth: the Newton arrays)
+        self.root_pose_w = coords[:, :7]
+        self.root_pos_w = coords[:, :3]
+        self.root_quat_w = coords[:, 3:7]
+        self.joint_pos = coords[:, 7:]
+        self.root_com_vel_w = dofs[:, :6]  # Newton: COM linear velocity and angular velocity, world frame
+        self.joint_vel = dofs[:, 6:]
+        self.body_pose_w = wp.to_torch(state.body_q).view(n, self.num_bodies, 7)
+        self.body_vel_w = wp.to_torch(state.body_qd).view(n, self.num_bodies, 6)  # COM lin vel, ang vel
+        # -- views of the control
+        self.joint_pos_target = wp.to_torch(control.joint_target_q).view(n, -1)[:, 7:]
+        self.joint_vel_target = wp.to_torch(control.joint_target_qd).view(n, -1)[:, 6:]
+        self.joint_effort_target = wp.to_torch(control.joint_f).view(n, -1)[:, 6:]
+        # -- views of per-world model parameters (domain randomisation writes these)
+        self.joint_stiffness = wp.to_torch(model.joint_target_ke).view(n, -1)[:, 6:]
+        self.joint_damping = wp.to_torch(model.joint_target_kd).view(n, -1)[:, 6:]
+        self.joint_effort_limit = wp.to_torch(model.joint_effort_limit).view(n, -1)[:, 6:]
+        self.joint_pos_limits = torch.stack(
+            (wp.to_torch(model.joint_limit_lower).view(n, -1)[:, 6:],
+             wp.to_torch(model.joint_limit_upper).view(n, -1)[:, 6:]), dim=-1)
+        self.joint_vel_limit = wp.to_torch(model.joint_velocity_limit).view(n, -1)[:, 6:]
+        self.root_com_offset_b = wp.to_torch(model.body_com).view(n, self.num_bodies, 3)[:, 0]
+        self.body_mass = wp.to_torch(model.body_mass).view(n, self.num_bodies)
+        # -- defaults (copies: what a reset returns to)
+        self.default_root_pose = self.root_pose_w.clone()
+        self.default_joint_pos = self.joint_pos.clone()
+        self.default_joint_vel = torch.zeros_like(self.joint_vel)
+        # -- derived, refreshed by update()
+        self.gravity_dir_w = torch.tensor(GRAVITY_DIR_W, device=self.device).expand(n, 3)
+        self.root_lin_vel_w = torch.zeros(n, 3, device=self.device)
+        self.root_ang_vel_w = torch.zeros(n, 3, device=self.device)
+        self.root_lin_vel_b = torch.zeros(n, 3, device=self.device)
+        self.root_ang_vel_b = torch.zeros(n, 3, device=self.device)
+        self.projected_gravity_b = torch.zeros(n, 3, device=self.device)
+        self.heading_w = torch.zeros(n, device=self.device)
+        self.joint_acc = torch.zeros_like(self.joint_vel)
+        self._prev_joint_vel = torch.zeros_like(self.joint_vel)
+        self.computed_torque = torch.zeros_like(self.joint_vel)
+        """Joint torque the PD law asks for [N·m], before the effort limit."""
+        self.applied_torque = torch.zeros_like(self.joint_vel)
+        """Joint torque of the actuators [N·m]: the PD law clipped by the effort limit (an estimate for
+        implicit PD, exact for explicit actuators)."""
+        self.update()
+
+    # -- selection ------------------------------------------------------------------------------
+
+    def find_joints(self, exprs: str | Sequence[str], preserve_order: bool = False) -> tuple[list[int], list[str]]:
+        return resolve_names(exprs, self.joint_names, "joint", preserve_order)
+
+    def find_bodies(self, exprs: str | Sequence[str], preserve_order: bool = False) -> tuple[list[int], list[str]]:
+        return resolve_names(exprs, self.body_names, "body", preserve_order)
+
+    # -- derived quantities ---------------------------------------------------------------------
+
+    def update(self) -> None:
+        """Refresh derived quantities from the state; once per env step, after physics or a reset."""
+        quat = self.root_quat_w
+        com_vel = self.root_com_vel_w
+        ang_vel_w = com_vel[:, 3:6]
+        com_offset_w = quat_rotate(quat, self.root_com_offset_b)
+        # v_origin = v_com + w x (p_origin - p_com)
+        self.root_lin_vel_w[:] = com_vel[:, :3] - torch.cross(ang_vel_w, com_offset_w, dim=-1)
+        self.root_ang_vel_w[:] = ang_vel_w
+        self.root_lin_vel_b[:] = quat_rotate_inverse(quat, self.root_lin_vel_w)
+        self.root_ang_vel_b[:] = quat_rotate_inverse(quat, ang_vel_w)
+        self.projected_gravity_b[:] = quat_rotate_inverse(quat, self.gravity_dir_w)
+        self.heading_w[:] = yaw_from_quat(quat)
+
+    def update_joint_acc(self) -> None:
+        """Joint acceleration by finite difference over the env step; once per env step, after physics."""
+        self.joint_acc[:] = (self.joint_vel - self._prev_joint_vel) / self._step_dt_s
+        self._prev_joint_vel[:] = self.joint_vel
+
+    def compute_pd_torque(self) -> None:
+        """Torque an implicit PD drive applies with the current targets, clipped to the effort limit."""
+        self.computed_torque[:] = self.joint_stiffness * (self.joint_pos_target - self.joint_pos) + \
+            self.joint_damping * (self.joint_vel_target - self.joint_vel) + self.joint_effort_target
+        torch.clamp(self.computed_torque, -self.joint_effort_limit, self.joint_effort_limit, out=self.applied_torque)
+
+    # -- writes (masked, no host sync) -----------------------------------------------------------
+
+    def write_root_state(self, pose_w: torch.Tensor, com_vel_w: torch.Tensor, mask: torch.Tensor) -> None:
+        """Set root pose (N,7) and root COM velocity (N,6, world frame) where mask (N,) is True."""
+        m = mask.unsqueeze(-1)
+        self.root_pose_w.copy_(torch.where(m, pose_w, self.root_pose_w))
+        self.root_com_vel_w.copy_(torch.where(m, com_vel_w, self.root_com_vel_w))
+
+    def write_joint_state(self, pos: torch.Tensor, vel: torch.Tensor, mask: torch.Tensor) -> None:
+        m = mask.unsqueeze(-1)
+        self.joint_pos.copy_(torch.where(m, pos, self.joint_pos))
+        self.joint_vel.copy_(torch.where(m, vel, self.joint_vel))
+        self._prev_joint_vel.copy_(torch.where(m, vel, self._prev_joint_vel))
+        self.joint_acc.masked_fill_(m, 0.0)

@@ -1,0 +1,27 @@
+"""Task registry: importing this package registers every agile task with gymnasium."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+from agile.tasks.locomotion import g1, t1  # noqa: F401  (registration side effect)
+from agile.utils.config import load_entry_point
+
+
+
+def registered_tasks() -> list[str]:
+    """IDs of the agile tasks registered with gymnasium."""
+    return sorted(spec_id for spec_id, spec in gym.registry.items()
+                  if isinstance(spec.entry_point, str) and spec.entry_point.startswith("agile."))
+
+
+def task_spec(task: str) -> gym.envs.registration.EnvSpec:
+    if task not in registered_tasks():
+        raise KeyError(f"unknown task '{task}'. Registered tasks: {registered_tasks()}")
+    return gym.spec(task)
+
+
+def load_cfgs(task: str):
+    """(env cfg, agent cfg) instances of a registered task."""
+    kwargs = task_spec(task).kwargs
+    return load_entry_point(kwargs["env_cfg_entry_point"])(), load_entry_point(kwargs["rsl_rl_cfg_entry_point"])()

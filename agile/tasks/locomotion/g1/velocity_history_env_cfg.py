@@ -1,0 +1,140 @@
+"""Velocity-G1-History-v0: Unitree G1 walks at commanded planar velocities from a 5-step observation
+history, controlling its 12 leg joints plus waist roll and pitch (14).
+
+AGILE `velocity_history_env_cfg.py` on flat ground. Terms needing terrain, contact sensors or domain
+randomisation (feet_slip, jumping, root_acc, illegal_ground_contact, DR events, terrain curriculum,
+random arm actions) are absent until those components exist.
+"""
+
+from __future__ import annotations
+
+import math
+
+from agile.assets.unitree_g1 import LOWER_BODY_JOINTS, g1_robot_cfg
+from agile.rl_env import ManagerBasedRLEnvCfg, mdp
+from agile.rl_env.managers import CurrTerm, DoneTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg, Unoise
+from agile.sim import SimCfg, SolverCfg
+from agile.tasks.locomotion.velocity_common import VelocityEventsCfg, velocity_command_cfg
+from agile.utils.config import configclass
+
+CONTROLLED_JOINTS = [*LOWER_BODY_JOINTS, "waist_roll_joint", "waist_pitch_joint"]
+CONTROLLED = SceneEntityCfg("robot", joint_names=CONTROLLED_JOINTS)
+LEGS = SceneEntityCfg("robot", joint_names=LOWER_BODY_JOINTS)
+FEET = SceneEntityCfg("robot", body_names=["left_ankle_roll_link", "right_ankle_roll_link"], preserve_order=True)
+BASE_HEIGHT_TARGET_M = 0.72
+
+
+@configclass
+class CommandsCfg:
+    base_velocity = velocity_command_cfg()
+
+
+@configclass
+class ActionsCfg:
+    joint_pos = mdp.JointPositionActionCfg(joint_names=CONTROLLED_JOINTS, scale=0.5, use_default_offset=True,
+                                           clip=(-10.0, 10.0))
+
+
+@configclass
+class PolicyCfg(ObsGroup):
+    concatenate_terms = False
+    enable_corruption = True
+    history_length = 5
+    base_ang_vel = ObsTerm(func=mdp.base_ang_vel, scale=0.2, noise=Unoise(-0.2, 0.2))
+    projected_gravity = ObsTerm(func=mdp.projected_gravity, noise=Unoise(-0.05, 0.05))
+    velocity_commands = ObsTerm(func=mdp.generated_commands, params={"command_name": "base_velocity"})
+    controlled_joint_pos = ObsTerm(func=mdp.joint_pos_rel, params={"asset_cfg": CONTROLLED},
+                                   noise=Unoise(-0.01, 0.01))
+    controlled_joint_vel = ObsTerm(func=mdp.joint_vel_rel, params={"asset_cfg": CONTROLLED}, scale=0.05,
+                                   noise=Unoise(-1.5, 1.5))
+    actions = ObsTerm(func=mdp.last_action)
+
+
+@configclass
+class CriticCfg(ObsGroup):
+    velocity_commands = ObsTerm(func=mdp.generated_commands, params={"command_name": "base_velocity"})
+    base_lin_vel = ObsTerm(func=mdp.base_lin_vel)
+    base_ang_vel = ObsTerm(func=mdp.base_ang_vel)
+    projected_gravity = ObsTerm(func=mdp.projected_gravity)
+    joint_pos = ObsTerm(func=mdp.joint_pos_rel)
+    joint_vel = ObsTerm(func=mdp.joint_vel_rel, scale=0.1)
+    actions = ObsTerm(func=mdp.last_action)
+
+
+@configclass
+class ObservationsCfg:
+    policy = PolicyCfg()
+    critic = CriticCfg()
+
+
+@configclass
+class RewardsCfg:
+    # -- task
+    termination_penalty = RewTerm(func=mdp.is_terminated, weight=-100.0)
+    track_lin_vel_xy_exp = RewTerm(func=mdp.track_lin_vel_xy_exp, weight=5.0,
+                                   params={"command_name": "base_velocity", "std": 0.2})
+    track_ang_vel = RewTerm(func=mdp.track_ang_vel_z_exp, weight=5.0, params={"command_name": "base_velocity", "std": 0.2})
+    base_height = RewTerm(func=mdp.base_height_exp, weight=2.5,
+                          params={"target_height_m": BASE_HEIGHT_TARGET_M, "std": 0.1})
+    # -- base
+    orientation = RewTerm(func=mdp.flat_body_orientation_exp, weight=5.0,
+                          params={"std_rad": math.radians(10.0),
+                                  "asset_cfg": SceneEntityCfg("robot", body_names=["pelvis", "torso_link"])})
+    lin_vel_z = RewTerm(func=mdp.lin_vel_z_l2, weight=-0.25)
+    ang_vel_xy = RewTerm(func=mdp.ang_vel_xy_l2, weight=-0.25)
+    # -- joints
+    torques = RewTerm(func=mdp.joint_torques_l2, weight=-5.0e-5, params={"asset_cfg": LEGS})
+    ankle_torques = RewTerm(func=mdp.joint_torques_l2, weight=-1.0e-4,
+                            params={"asset_cfg": SceneEntityCfg("robot", joint_names=".*_ankle_.*_joint")})
+    ankle_roll_torques = RewTerm(func=mdp.joint_torques_l2, weight=-1.0e-3,
+                                 params={"asset_cfg": SceneEntityCfg("robot", joint_names=".*_ankle_roll_joint")})
+    dof_vel = RewTerm(func=mdp.joint_vel_l2, weight=-1.0e-4)
+    dof_pos_limits = RewTerm(func=mdp.joint_pos_limits, weight=-0.5)
+    dof_vel_limits = RewTerm(func=mdp.joint_vel_limits, weight=-0.5, params={"soft_ratio": 0.9})
+    torque_limits = RewTerm(func=mdp.applied_torque_limits, weight=-0.005)
+    # -- actions
+    action_rate = RewTerm(func=mdp.action_rate_l2, weight=-0.25)
+    action_rate_rate = RewTerm(func=mdp.action_rate_rate_l2, weight=-0.025)
+    # -- feet
+    feet_roll = RewTerm(func=mdp.feet_roll_l2, weight=-0.05, params={"asset_cfg": FEET})
+    feet_yaw_diff = RewTerm(func=mdp.feet_yaw_diff_l2, weight=-0.1, params={"asset_cfg": FEET})
+    feet_yaw_mean = RewTerm(func=mdp.feet_yaw_mean_vs_base, weight=-2.0, params={"asset_cfg": FEET})
+    feet_distance = RewTerm(func=mdp.feet_distance_from_ref, weight=-0.1,
+                            params={"asset_cfg": FEET, "ref_distance_m": 0.2})
+
+
+@configclass
+class TerminationsCfg:
+    time_out = DoneTerm(func=mdp.time_out, time_out=True)
+    bad_orientation = DoneTerm(func=mdp.bad_orientation,
+                               params={"limit_angle_rad": math.radians(30.0),
+                                       "asset_cfg": SceneEntityCfg("robot", body_names="torso_link")})
+    illegal_base_height = DoneTerm(func=mdp.root_height_below_minimum,
+                                   params={"minimum_height_m": BASE_HEIGHT_TARGET_M - 0.3})
+
+
+@configclass
+class CurriculumCfg:
+    action_rate = CurrTerm(func=mdp.update_reward_weight_step,
+                           params={"reward_name": "action_rate", "start_step": 50_000, "num_steps": 100_000,
+                                   "terminal_weight": -1.0})
+    action_rate_rate = CurrTerm(func=mdp.update_reward_weight_step,
+                                params={"reward_name": "action_rate_rate", "start_step": 60_000,
+                                        "num_steps": 100_000, "terminal_weight": -0.5})
+
+
+@configclass
+class G1VelocityHistoryEnvCfg(ManagerBasedRLEnvCfg):
+    num_envs = 4096
+    decimation = 4  # 50 Hz policy
+    episode_length_s = 30.0
+    sim = SimCfg(physics_dt_s=0.005, env_spacing_m=2.5,
+                 solver=SolverCfg(iterations=10, ls_iterations=20, njmax=300, nconmax=64))
+    robot = g1_robot_cfg()
+    commands = CommandsCfg()
+    actions = ActionsCfg()
+    observations = ObservationsCfg()
+    rewards = RewardsCfg()
+    terminations = TerminationsCfg()
+    events = VelocityEventsCfg()
+    curriculum = CurriculumCfg()

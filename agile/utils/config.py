@@ -1,0 +1,177 @@
+"""Config helpers: a dataclass decorator for term-style configs, overrides by dotted path, dumping.
+
+Configs are stdlib dataclasses. `configclass` only adds two conveniences so that a task file can read
+like Isaac Lab's (`track_lin_vel_xy_exp = RewTerm(...)`):
+- class attributes without an annotation become fields (annotated with the type of their value);
+- mutable defaults (other configs, lists, dicts) are deep-copied per instance, so that changing one
+  env config never changes another.
+"""
+
+from __future__ import annotations
+
+import ast
+import copy
+import dataclasses
+import importlib
+import inspect
+import math
+from collections.abc import Callable, Iterator
+from typing import Any
+
+
+def configclass(cls=None, **dataclass_kwargs):
+    """Turn a class into a dataclass whose defaults are copied per instance."""
+
+    def wrap(cls):
+        annotations = dict(cls.__dict__.get("__annotations__", {}))
+        for name, value in list(cls.__dict__.items()):
+            if name.startswith("__") or name in annotations:
+                continue
+            if inspect.isfunction(value) or isinstance(value, (classmethod, staticmethod, property)):
+                continue
+            annotations[name] = type(value)
+        cls.__annotations__ = annotations
+        for name in annotations:
+            if name not in cls.__dict__:
+                continue
+            value = cls.__dict__[name]
+            if isinstance(value, dataclasses.Field):
+                continue
+            if _is_mutable(value):
+                setattr(cls, name, dataclasses.field(default_factory=_copier(value)))
+        return dataclasses.dataclass(cls, **dataclass_kwargs)
+
+    return wrap if cls is None else wrap(cls)
+
+
+def _is_mutable(value) -> bool:
+    return dataclasses.is_dataclass(value) or isinstance(value, (list, dict, set))
+
+
+def _copier(value):
+    return lambda: copy.deepcopy(value)
+
+
+def iter_fields(cfg) -> Iterator[tuple[str, Any]]:
+    """(name, value) of the dataclass fields of `cfg`, in declaration order."""
+    for f in dataclasses.fields(cfg):
+        yield f.name, getattr(cfg, f.name)
+
+
+# ---------------------------------------------------------------------------------------------
+# Overrides: "env.rewards.track_lin_vel_xy_exp.weight=2.0"
+
+
+class ConfigError(ValueError):
+    """A config field is missing, misspelt or of the wrong type."""
+
+
+def parse_value(text: str):
+    """Python literal if it parses as one (numbers, bools, None, tuples, lists, dicts), else the string."""
+    try:
+        return ast.literal_eval(text)
+    except (ValueError, SyntaxError):
+        lowered = text.lower()
+        if lowered in ("true", "false"):
+            return lowered == "true"
+        if lowered in ("none", "null"):
+            return None
+        return text
+
+
+def set_by_path(cfg, path: str, value, root_name: str = "cfg") -> None:
+    """Set `cfg.<path>` (dots; dict keys allowed) to `value`, checking that the field exists and the type fits."""
+    parts = path.split(".")
+    obj = cfg
+    walked = root_name
+    for i, part in enumerate(parts):
+        last = i == len(parts) - 1
+        if isinstance(obj, dict):
+            if part not in obj:
+                raise ConfigError(f"'{walked}' has no key '{part}'. Keys: {sorted(obj)}")
+            current = obj[part]
+        elif dataclasses.is_dataclass(obj):
+            names = [f.name for f in dataclasses.fields(obj)]
+            if part not in names:
+                raise ConfigError(f"'{walked}' has no field '{part}'. Fields: {names}")
+            current = getattr(obj, part)
+        else:
+            raise ConfigError(f"'{walked}' is a {type(obj).__name__}, it has no field '{part}'")
+        if last:
+            new = _coerce(current, value, f"{walked}.{part}")
+            if isinstance(obj, dict):
+                obj[part] = new
+            else:
+                setattr(obj, part, new)
+        else:
+            obj = current
+            walked = f"{walked}.{part}"
+
+
+def _coerce(current, value, name: str):
+    if current is None or value is None:
+        return value
+    if isinstance(current, bool):
+        if not isinstance(value, bool):
+            raise ConfigError(f"'{name}' expects a bool, got {value!r}")
+        return value
+    if isinstance(current, float) and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    if isinstance(current, int) and isinstance(value, float) and value.is_integer():
+        return int(value)
+    if isinstance(current, tuple) and isinstance(value, list):
+        return tuple(value)
+    if isinstance(current, (int, float, str, tuple, list, dict)) and not isinstance(value, type(current)):
+        raise ConfigError(f"'{name}' expects {type(current).__name__}, got {type(value).__name__} {value!r}")
+    if dataclasses.is_dataclass(current) and not dataclasses.is_dataclass(value):
+        raise ConfigError(f"'{name}' is a config group ({type(current).__name__}); set one of its fields instead")
+    return value
+
+
+def apply_overrides(roots: dict[str, Any], overrides: list[str]) -> None:
+    """Apply "root.path=value" strings, e.g. roots={"env": env_cfg, "agent": agent_cfg}."""
+    for item in overrides:
+        if "=" not in item:
+            raise ConfigError(f"override '{item}' is not of the form path=value")
+        path, text = item.split("=", 1)
+        path = path.lstrip("-")
+        root, _, rest = path.partition(".")
+        if root not in roots or not rest:
+            raise ConfigError(f"override '{item}' must start with one of {sorted(roots)} followed by a field path")
+        set_by_path(roots[root], rest, parse_value(text), root_name=root)
+
+
+# ---------------------------------------------------------------------------------------------
+# Dumping and entry points
+
+
+def to_dict(cfg) -> Any:
+    """Plain dict/list/scalar form of a config, with callables written as 'module:qualname'."""
+    if dataclasses.is_dataclass(cfg) and not isinstance(cfg, type):
+        return {f.name: to_dict(getattr(cfg, f.name)) for f in dataclasses.fields(cfg)}
+    if isinstance(cfg, dict):
+        return {str(k): to_dict(v) for k, v in cfg.items()}
+    if isinstance(cfg, (list, tuple)):
+        return [to_dict(v) for v in cfg]
+    if isinstance(cfg, float) and not math.isfinite(cfg):
+        return str(cfg)
+    if isinstance(cfg, (int, float, str, bool)) or cfg is None:
+        return cfg
+    if callable(cfg):
+        return callable_name(cfg)
+    return repr(cfg)
+
+
+def callable_name(obj: Callable) -> str:
+    return f"{getattr(obj, '__module__', '?')}:{getattr(obj, '__qualname__', repr(obj))}"
+
+
+def load_entry_point(spec: str | Callable):
+    """Resolve 'package.module:Attr' to the attribute (callables pass through)."""
+    if callable(spec):
+        return spec
+    module_name, _, attr = spec.partition(":")
+    obj = importlib.import_module(module_name)
+    for part in attr.split("."):
+        obj = getattr(obj, part)
+    return obj
