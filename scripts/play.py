@@ -1,0 +1,114 @@
+"""Run a task: sinusoidal test actions without a checkpoint, or a trained policy with one.
+
+    python scripts/play.py --task Velocity-G1-History-v0 --num_envs 2 --num_steps 50
+    python scripts/play.py --task Velocity-T1-v0 --checkpoint logs/rsl_rl/velocity_t1/<run>/model_3000.pt
+    python scripts/play.py --task Velocity-T1-v0 --viewer viser          # browser viewer on http://localhost:8080
+
+Headless by default. Observation noise and curricula are switched off for playing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import time
+
+from utils import cli
+
+
+def sinusoidal_actions(step: int, step_dt: float, num_envs: int, action_dim: int, device):
+    """0.5·sin(2π(0.5 + 0.2·(i mod 5))·t + iπ/dim) on action i: exercises every joint without a policy."""
+    import torch
+
+    i = torch.arange(action_dim, device=device, dtype=torch.float32)
+    freq_hz = 0.5 + 0.2 * torch.remainder(i, 5)
+    t = step * step_dt
+    return (0.5 * torch.sin(2 * math.pi * freq_hz * t + i * math.pi / action_dim)).expand(num_envs, -1)
+
+
+def play_cfg(env_cfg):
+    """The env cfg for playing: no observation noise, no curriculum."""
+    from agile.rl_env.managers import ObsGroup
+
+    for f in dataclasses.fields(env_cfg.observations):
+        group = getattr(env_cfg.observations, f.name)
+        if isinstance(group, ObsGroup):
+            group.enable_corruption = False
+    env_cfg.curriculum = None
+    return env_cfg
+
+
+def load_policy(checkpoint: str, env, agent_cfg):
+    from rsl_rl.runners import OnPolicyRunner
+
+    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+
+    wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
+    runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
+    runner.load(checkpoint, map_location=str(env.device))
+    return runner.get_inference_policy(device=str(env.device))
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    cli.add_common_args(parser)
+    parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (model_<it>.pt) to run")
+    parser.add_argument("--num_steps", type=int, default=1000, help="env steps to run")
+    parser.add_argument("--viewer", choices=["none", "viser"], default="none", help="viser: browser viewer")
+    parser.add_argument("--port", type=int, default=8080, help="viser port")
+    parser.add_argument("--real_time", action="store_true", help="slow down to the control rate")
+    args = parser.parse_args(argv)
+
+    env_cfg, agent_cfg, device = cli.load_task(args)
+    import torch
+
+    from agile.rl_env.rsl_rl import flatten_groups
+
+    env = cli.make_env(args.task, play_cfg(env_cfg), device)
+    policy = load_policy(args.checkpoint, env, agent_cfg) if args.checkpoint else None
+    print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
+          f"{'policy ' + args.checkpoint if policy else 'sinusoidal test actions'}")
+
+    viewer = None
+    if args.viewer == "viser":
+        import newton.viewer
+
+        viewer = newton.viewer.ViewerViser(port=args.port, host="0.0.0.0")
+        viewer.set_model(env.sim.model)
+        print(f"[agile] viewer on http://localhost:{args.port}")
+
+    obs, _ = env.reset()
+    episodes = falls = 0
+    reward_sum = torch.zeros((), device=env.device)
+    wall_start = time.perf_counter()
+    with torch.inference_mode():
+        for step in range(args.num_steps):
+            start = time.perf_counter()
+            if policy is not None:
+                actions = policy(flatten_groups(obs))
+            else:
+                actions = sinusoidal_actions(step, env.step_dt, env.num_envs, env.action_manager.total_action_dim,
+                                             env.device)
+            obs, reward, terminated, truncated, _ = env.step(actions)
+            reward_sum += reward.mean()
+            episodes += int((terminated | truncated).sum())
+            falls += int(terminated.sum())
+            if viewer is not None:
+                if not viewer.is_running():
+                    break
+                viewer.begin_frame(step * env.step_dt)
+                viewer.log_state(env.sim.state)
+                viewer.end_frame()
+            if args.real_time:
+                time.sleep(max(0.0, env.step_dt - (time.perf_counter() - start)))
+    elapsed = time.perf_counter() - wall_start
+    print(f"[agile] {step + 1} steps in {elapsed:.1f} s ({(step + 1) * env.num_envs / elapsed:.0f} env-steps/s); "
+          f"mean reward per step {float(reward_sum) / (step + 1):.4f}; episodes ended {episodes}, by failure {falls}")
+    if viewer is not None:
+        viewer.close()
+    env.close()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,63 @@
+"""Train a task with RSL-RL PPO.
+
+    python scripts/train.py --task Velocity-T1-v0 --num_envs 4096 --max_iterations 3000
+    python scripts/train.py --task Velocity-T1-v0 --resume            # newest checkpoint of the experiment
+    python scripts/train.py --task Velocity-T1-v0 agent.algorithm.learning_rate=5e-4 env.episode_length_s=20
+
+Checkpoints, tensorboard logs and the resolved configs go to logs/rsl_rl/<experiment>/<time>_<run>/.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from utils import cli
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    cli.add_common_args(parser)
+    parser.add_argument("--max_iterations", type=int, default=None, help="PPO iterations (default: the task's)")
+    parser.add_argument("--resume", action="store_true", help="continue from a checkpoint (--checkpoint or newest)")
+    parser.add_argument("--checkpoint", default=None, help="checkpoint file to resume from")
+    parser.add_argument("--logger", choices=["tensorboard", "wandb", "neptune"], default=None)
+    parser.add_argument("--run_name", default=None, help="suffix of the log folder")
+    parser.add_argument("--log_root", default=os.path.join("logs", "rsl_rl"))
+    args = parser.parse_args(argv)
+
+    env_cfg, agent_cfg, device = cli.load_task(args)
+    if args.max_iterations is not None:
+        agent_cfg.max_iterations = args.max_iterations
+    if args.logger is not None:
+        agent_cfg.logger = args.logger
+    if args.run_name is not None:
+        agent_cfg.run_name = args.run_name
+    resume_path = None
+    if args.resume or args.checkpoint:
+        resume_path = args.checkpoint or cli.latest_checkpoint(args.log_root, agent_cfg.experiment_name)
+        if not os.path.isfile(resume_path):
+            sys.exit(f"error: checkpoint not found: {resume_path}")
+
+    from rsl_rl.runners import OnPolicyRunner
+
+    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+
+    env = cli.make_env(args.task, env_cfg, device)
+    print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
+          f"obs {env.observation_manager.group_dims}, actions {env.action_manager.total_action_dim}")
+    log_dir = cli.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
+    cli.dump_configs(log_dir, env_cfg, agent_cfg)
+    wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
+    runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
+    if resume_path:
+        print(f"[agile] resuming from {resume_path}")
+        runner.load(resume_path)
+    runner.learn(num_learning_iterations=agent_cfg.max_iterations, init_at_random_ep_len=True)
+    print(f"[agile] logs and checkpoints in {log_dir}")
+    env.close()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,105 @@
+"""What every script shares: task/device arguments, config overrides, log folders."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from datetime import datetime
+from pathlib import Path
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+if str(REPO_ROOT) not in sys.path:  # run from a checkout without installing
+    sys.path.insert(0, str(REPO_ROOT))
+
+CPU_DEFAULT_NUM_ENVS = 4
+
+OVERRIDE_HELP = ("config overrides as path=value, e.g. env.rewards.track_lin_vel_xy_exp.weight=2.0 "
+                 "agent.algorithm.learning_rate=5e-4 env.sim.solver.iterations=20")
+
+
+def add_common_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--task", required=True, help="registered task ID, e.g. Velocity-T1-v0")
+    parser.add_argument("--num_envs", type=int, default=None,
+                        help=f"parallel envs (default: the task's on GPU, {CPU_DEFAULT_NUM_ENVS} on CPU)")
+    parser.add_argument("--device", default=None, help="cuda:0 or cpu (default: cuda:0 when a GPU is present)")
+    parser.add_argument("--seed", type=int, default=None, help="random seed")
+    parser.add_argument("overrides", nargs="*", help=OVERRIDE_HELP)
+
+
+def resolve_device(requested: str | None) -> str:
+    import warp as wp
+
+    wp.config.quiet = True
+    if requested is None:
+        if wp.is_cuda_available():
+            return "cuda:0"
+        print("[agile] no GPU found: running on CPU with a small env count")
+        return "cpu"
+    if requested.startswith("cuda") and not wp.is_cuda_available():
+        print(f"[agile] {requested} requested but no GPU found: falling back to CPU with a small env count")
+        return "cpu"
+    return requested
+
+
+def load_task(args) -> tuple:
+    """(env cfg, agent cfg, device) for the task, with CLI overrides applied and checked."""
+    import agile.tasks
+    from agile.utils.config import ConfigError, apply_overrides
+
+    try:
+        env_cfg, agent_cfg = agile.tasks.load_cfgs(args.task)
+    except KeyError as err:
+        sys.exit(f"error: {err.args[0]}")
+    device = resolve_device(args.device)
+    if args.num_envs is not None:
+        env_cfg.num_envs = args.num_envs
+    elif device == "cpu":
+        env_cfg.num_envs = CPU_DEFAULT_NUM_ENVS
+    if args.seed is not None:
+        env_cfg.seed = args.seed
+        agent_cfg.seed = args.seed
+    try:
+        apply_overrides({"env": env_cfg, "agent": agent_cfg}, args.overrides)
+    except ConfigError as err:
+        sys.exit(f"error: {err}")
+    return env_cfg, agent_cfg, device
+
+
+def make_env(task: str, env_cfg, device: str):
+    from agile.rl_env import ManagerBasedRLEnv
+    from agile.utils.config import ConfigError
+
+    try:
+        return ManagerBasedRLEnv(env_cfg, task_name=task, device=device)
+    except ConfigError as err:
+        sys.exit(f"error: {err}")
+
+
+def new_log_dir(log_root: str, experiment: str, run_name: str) -> str:
+    stamp = datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
+    name = f"{stamp}_{run_name}" if run_name else stamp
+    path = os.path.join(log_root, experiment, name)
+    os.makedirs(path, exist_ok=True)
+    return path
+
+
+def latest_checkpoint(log_root: str, experiment: str) -> str:
+    """model_<it>.pt with the highest iteration in the newest run folder of an experiment."""
+    exp_dir = Path(log_root) / experiment
+    runs = sorted((p for p in exp_dir.glob("*") if p.is_dir() and list(p.glob("model_*.pt"))), key=lambda p: p.name)
+    if not runs:
+        sys.exit(f"error: no checkpoint found under {exp_dir}")
+    models = sorted(runs[-1].glob("model_*.pt"), key=lambda p: int(p.stem.split("_")[1]))
+    return str(models[-1])
+
+
+def dump_configs(log_dir: str, env_cfg, agent_cfg) -> None:
+    import yaml
+
+    from agile.utils.config import to_dict
+
+    params = Path(log_dir) / "params"
+    params.mkdir(parents=True, exist_ok=True)
+    (params / "env.yaml").write_text(yaml.safe_dump(to_dict(env_cfg), sort_keys=False))
+    (params / "agent.yaml").write_text(yaml.safe_dump(to_dict(agent_cfg), sort_keys=False))
