@@ -113,6 +113,10 @@ class Simulation:
         self.wp_device = wp.get_device(device)
         self.device = torch.device(wp.device_to_torch(self.wp_device))
         self.physics_dt_s = cfg.physics_dt_s
+        if self.wp_device.is_cuda:
+            # one CUDA stream for Warp and torch: term math and physics stay ordered without host syncs,
+            # and graph capture runs on a non-default stream
+            torch.cuda.set_stream(wp.stream_to_torch(wp.get_stream(self.wp_device)))
 
         robot_builder, joint_names, body_names = build_robot(robot_cfg, cfg.gravity_mps2)
         scene = newton.ModelBuilder(gravity=(0.0, 0.0, cfg.gravity_mps2))
