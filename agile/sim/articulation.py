@@ -40,8 +40,8 @@ class Articulation:
         dofs = wp.to_torch(state.joint_qd).view(n, -1)
         if coords.shape[1] - 7 != dofs.shape[1] - 6 or dofs.shape[1] - 6 != self.num_joints:
             raise ValueError(
-                f"only robots with a free root joint and 1-DoF joints are supported; got {coords.shape[1]} "
-                f"coordinates and {dofs.shape[1]} DoFs per world for joints {self.joint_names}")
+                f"only robots with a free root joint and hinge/slide joints (one coordinate per DoF) are supported; "
+                f"got {coords.shape[1]} coordinates and {dofs.shape[1]} DoFs per world for DoFs {self.joint_names}")
         # -- views of the state (one source of truth: the Newton arrays)
         self.root_pose_w = coords[:, :7]
         self.root_pos_w = coords[:, :3]

@@ -65,7 +65,7 @@ def build_robot(cfg: RobotCfg, gravity_mps2: float) -> tuple[newton.ModelBuilder
         for i in colliders:
             attrs["mujoco:condim"].values[i] = cfg.contact_dim
 
-    joint_names = [short_name(builder.joint_label[j]) for j in range(1, builder.joint_count)]
+    joint_names = dof_names(builder)
     body_names = [short_name(label) for label in builder.body_label]
 
     # default root pose and joint positions (coordinates: 7 root + one per hinge)
@@ -80,6 +80,17 @@ def build_robot(cfg: RobotCfg, gravity_mps2: float) -> tuple[newton.ModelBuilder
         except ValueError as err:
             raise ValueError(f"actuator group '{group_name}': {err}") from None
     return builder, joint_names, body_names
+
+
+def dof_names(builder: newton.ModelBuilder) -> list[str]:
+    """One name per non-root DoF: the joint's name, or "<joint>:<k>" for a joint with several DoFs
+    (Newton merges MJCF hinges on one body into one joint), as Newton's selection API names them."""
+    names = []
+    for j in range(1, builder.joint_count):
+        name = short_name(builder.joint_label[j])
+        count = sum(builder.joint_dof_dim[j])
+        names.extend([name] if count == 1 else [f"{name}:{k}" for k in range(count)])
+    return names
 
 
 def apply_actuator_to_builder(builder: newton.ModelBuilder, act, joint_names: list[str]) -> None:

@@ -1,0 +1,123 @@
+"""Throughput of a task: raw physics, full env.step, and training, in env-steps per second.
+
+    python scripts/benchmark.py --task Velocity-G1-History-v0 --num_envs 1024 4096 16384
+    python scripts/benchmark.py --task Velocity-T1-v0 --device cpu --num_envs 2 --steps 20   # a CPU check
+
+For each env count, from one process on one device: raw physics (the captured decimation loop alone, no
+managers), env.step with random actions and its ratio to raw physics, PPO training (rollout + update) and
+its ratio, startup (gym.make to the first step done) and peak device memory.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+from utils import cli
+
+
+def synchronize(device) -> None:
+    import torch
+
+    if str(device).startswith("cuda"):
+        torch.cuda.synchronize()
+
+
+def device_memory_used_gb(device) -> float | None:
+    import torch
+
+    if not str(device).startswith("cuda"):
+        return None
+    free, total = torch.cuda.mem_get_info()
+    return (total - free) / 1e9
+
+
+def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterations: int) -> dict:
+    import torch
+    from rsl_rl.runners import OnPolicyRunner
+
+    from agile.rl_env import ManagerBasedRLEnv
+    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+
+    start = time.perf_counter()
+    env = ManagerBasedRLEnv(env_cfg, task_name=task, device=device)
+    n = env.num_envs
+    action_dim = env.action_manager.total_action_dim
+    env.step(torch.zeros(n, action_dim, device=env.device))
+    synchronize(env.device)
+    startup_s = time.perf_counter() - start
+
+    # raw physics: the captured decimation loop on the same world, no managers
+    for _ in range(5):
+        env.sim.step(env.cfg.decimation)
+    synchronize(env.device)
+    start = time.perf_counter()
+    for _ in range(steps):
+        env.sim.step(env.cfg.decimation)
+    synchronize(env.device)
+    raw = n * steps / (time.perf_counter() - start)
+    env.reset()
+
+    actions = torch.rand(steps, n, action_dim, device=env.device) * 2 - 1
+    for i in range(5):
+        env.step(actions[i])
+    synchronize(env.device)
+    start = time.perf_counter()
+    for i in range(steps):
+        env.step(actions[i])
+    synchronize(env.device)
+    full = n * steps / (time.perf_counter() - start)
+
+    agent_cfg.max_iterations = train_iterations
+    runner = OnPolicyRunner(RslRlVecEnvWrapper(env), to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
+    runner.learn(1)  # warm-up: allocations, first update
+    synchronize(env.device)
+    start = time.perf_counter()
+    runner.learn(train_iterations)
+    synchronize(env.device)
+    train = n * agent_cfg.num_steps_per_env * train_iterations / (time.perf_counter() - start)
+    memory = device_memory_used_gb(env.device)
+    env.close()
+    return {"num_envs": n, "raw_physics": raw, "env_step": full, "env_step_ratio": full / raw,
+            "train": train, "train_ratio": train / raw, "startup_s": startup_s, "device_memory_gb": memory}
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--task", required=True)
+    parser.add_argument("--num_envs", type=int, nargs="+", default=[1024, 4096, 16384])
+    parser.add_argument("--device", default=None)
+    parser.add_argument("--steps", type=int, default=200, help="env steps timed per measurement")
+    parser.add_argument("--train_iterations", type=int, default=5)
+    parser.add_argument("--out", default=None, help="write the results as JSON here")
+    parser.add_argument("overrides", nargs="*", help=cli.OVERRIDE_HELP)
+    args = parser.parse_args(argv)
+
+    import torch
+
+    rows = []
+    for num_envs in args.num_envs:
+        run_args = argparse.Namespace(task=args.task, num_envs=num_envs, device=args.device, seed=None,
+                                      overrides=args.overrides)
+        env_cfg, agent_cfg, device = cli.load_task(run_args)
+        rows.append(measure(args.task, env_cfg, agent_cfg, device, args.steps, args.train_iterations))
+        print(json.dumps(rows[-1]), flush=True)
+        if device.startswith("cuda"):
+            torch.cuda.empty_cache()
+
+    name = torch.cuda.get_device_name() if str(device).startswith("cuda") else "CPU"
+    print(f"\n{args.task} on {name} (env-steps/s; ratios to raw physics)")
+    print(f"{'envs':>7} {'raw physics':>12} {'env.step':>10} {'ratio':>6} {'train':>10} {'ratio':>6} "
+          f"{'startup s':>9} {'mem GB':>7}")
+    for r in rows:
+        mem = f"{r['device_memory_gb']:.1f}" if r["device_memory_gb"] is not None else "-"
+        print(f"{r['num_envs']:>7} {r['raw_physics']:>12.0f} {r['env_step']:>10.0f} {r['env_step_ratio']:>6.2f} "
+              f"{r['train']:>10.0f} {r['train_ratio']:>6.2f} {r['startup_s']:>9.1f} {mem:>7}")
+    if args.out:
+        with open(args.out, "w") as f:
+            json.dump({"task": args.task, "device": name, "results": rows}, f, indent=2)
+
+
+if __name__ == "__main__":
+    main()

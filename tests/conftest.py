@@ -1,0 +1,38 @@
+"""Shared fixtures. Tests run on CPU with a few envs; Warp kernels compile once and stay cached."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+import warp as wp
+
+wp.config.quiet = True
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+
+
+def pytest_collection_modifyitems(config, items):
+    if wp.is_cuda_available():
+        return
+    skip = pytest.mark.skip(reason="needs a CUDA device")
+    for item in items:
+        if "gpu" in item.keywords:
+            item.add_marker(skip)
+
+
+@pytest.fixture(scope="session")
+def t1_env():
+    import gymnasium as gym
+
+    import agile.tasks  # noqa: F401
+
+    env = gym.make("Velocity-T1-v0", num_envs=3, device="cpu", seed=0)
+    yield env.unwrapped
+    env.close()
+
+
+@pytest.fixture
+def cpu():
+    return torch.device("cpu")

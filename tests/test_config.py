@@ -1,0 +1,67 @@
+import pytest
+
+from agile.rl_env.managers import RewTerm
+from agile.utils.config import ConfigError, apply_overrides, configclass, parse_value, set_by_path, to_dict
+
+
+def _double(x):
+    return 2 * x
+
+
+@configclass
+class Inner:
+    weight = 1.0
+    names = [".*"]
+
+
+@configclass
+class Outer:
+    count = 4
+    flag = True
+    inner = Inner()
+    term = RewTerm(func=_double, weight=0.5, params={"std": 0.2})
+
+
+def test_defaults_are_copied_per_instance():
+    a, b = Outer(), Outer()
+    a.inner.weight = 3.0
+    a.inner.names.append("x")
+    a.term.params["std"] = 9.0
+    assert b.inner.weight == 1.0 and b.inner.names == [".*"] and b.term.params["std"] == 0.2
+
+
+def test_override_sets_nested_fields_and_dict_keys():
+    cfg = Outer()
+    apply_overrides({"env": cfg}, ["env.inner.weight=2", "env.term.params.std=0.5", "env.count=8"])
+    assert cfg.inner.weight == 2.0 and isinstance(cfg.inner.weight, float)
+    assert cfg.term.params["std"] == 0.5
+    assert cfg.count == 8
+
+
+def test_misspelt_field_names_the_field_and_lists_valid_ones():
+    with pytest.raises(ConfigError, match="has no field 'wieght'.*'weight'"):
+        set_by_path(Outer(), "inner.wieght", 1.0, root_name="env")
+    with pytest.raises(ConfigError, match="no key 'sdt'"):
+        set_by_path(Outer(), "term.params.sdt", 1.0)
+
+
+def test_wrong_type_is_rejected_with_the_field_name():
+    with pytest.raises(ConfigError, match="'env.count' expects int"):
+        apply_overrides({"env": Outer()}, ["env.count=abc"])
+    with pytest.raises(ConfigError, match="expects a bool"):
+        apply_overrides({"env": Outer()}, ["env.flag=3"])
+    with pytest.raises(ConfigError, match="must start with one of"):
+        apply_overrides({"env": Outer()}, ["count=3"])
+
+
+def test_parse_value():
+    assert parse_value("1e-3") == 1e-3
+    assert parse_value("[1, 2]") == [1, 2]
+    assert parse_value("true") is True
+    assert parse_value("hello") == "hello"
+
+
+def test_to_dict_names_functions():
+    d = to_dict(Outer())
+    assert d["term"]["func"].endswith(":_double")
+    assert d["inner"] == {"weight": 1.0, "names": [".*"]}
