@@ -17,7 +17,7 @@ def test_gym_make_from_user_code_with_overrides():
     env = gym.make("Velocity-G1-History-v0", num_envs=2, device="cpu",
                    overrides=["episode_length_s=5.0", "rewards.track_lin_vel_xy_exp.weight=1.5"])
     u = env.unwrapped
-    assert u.max_episode_length == 250 and u.reward_manager.get_term_cfg("track_lin_vel_xy_exp").weight == 1.5
+    assert u.max_episode_length == 250 and u.reward_manager.weights["track_lin_vel_xy_exp"].item() == 1.5
     obs, extras = env.reset()
     assert isinstance(obs, TensorDict) and set(obs.keys()) == {"policy", "critic"}
     # policy: 5-step history of ang vel (3), gravity (3), command (3), 14 joint pos, 14 joint vel, 14 actions

@@ -194,13 +194,13 @@ def test_reward_weight_ramp_linear_and_log():
     mask = torch.zeros(2, dtype=torch.bool)
     env.common_step_counter = 5
     curriculum.compute(mask)
-    assert env.reward_manager.get_term_cfg("rate").weight == pytest.approx(-0.5)
-    assert env.reward_manager.get_term_cfg("rate2").weight == pytest.approx(-1.0)  # halfway in log space
+    assert env.reward_manager.weights["rate"].item() == pytest.approx(-0.5)
+    assert env.reward_manager.weights["rate2"].item() == pytest.approx(-1.0)  # halfway in log space
     env.common_step_counter = 20
     log = curriculum.compute(mask)
-    assert env.reward_manager.get_term_cfg("rate").weight == pytest.approx(-1.25)
-    assert log["Curriculum/lin"] == pytest.approx(-1.25)
+    assert env.reward_manager.weights["rate"].item() == pytest.approx(-1.25)
+    assert log["Curriculum/lin"].item() == pytest.approx(-1.25)
     env.common_step_counter = 1000
     curriculum.compute(mask)
-    assert env.reward_manager.get_term_cfg("rate").weight == pytest.approx(-2.0)
-    assert env.reward_manager.get_term_cfg("rate2").weight == pytest.approx(-10.0)
+    assert env.reward_manager.weights["rate"].item() == pytest.approx(-2.0)
+    assert env.reward_manager.weights["rate2"].item() == pytest.approx(-10.0)

@@ -33,8 +33,45 @@ class ManagerBasedRLEnvCfg:
     terminations: object = None
     events: object = None
     curriculum: object = None
+    capture_step: bool = True
+    """On CUDA, record the whole env step (term math, resets and physics) once as a CUDA graph and replay it:
+    no Python runs per step. Terms must then avoid host syncs and host-to-device copies."""
     max_joint_speed_rad_s: float = 1000.0
     """A world whose joint speed exceeds this, or whose state is not finite, is reset and counted as unstable."""
+
+
+class EpisodeLog:
+    """Scalars for extras["log"], kept in one device tensor so that a captured step can update them."""
+
+    def __init__(self, device):
+        self.device = device
+        self.index: dict[str, int] = {}
+        self.values = torch.zeros(0, device=device)
+        self._ids: dict[tuple, torch.Tensor] = {}
+
+    def write(self, entries: dict, hold_unless: torch.Tensor | None = None) -> None:
+        """Store entries; with hold_unless, keep the old values where it is False (no episode finished)."""
+        if not entries:
+            return
+        names = tuple(entries)
+        new_names = [k for k in names if k not in self.index]
+        if new_names:  # first step only, before any capture
+            for k in new_names:
+                self.index[k] = len(self.index)
+            self.values = torch.cat((self.values, torch.zeros(len(new_names), device=self.device)))
+            self._ids.clear()
+        ids = self._ids.get(names)
+        if ids is None:
+            ids = self._ids[names] = torch.tensor([self.index[k] for k in names], device=self.device)
+        new = torch.stack([v.float() if isinstance(v, torch.Tensor) else torch.tensor(float(v), device=self.device)
+                           for v in entries.values()])
+        if hold_unless is not None:
+            new = torch.where(hold_unless, new, self.values[ids])
+        self.values[ids] = new
+
+    def snapshot(self) -> dict[str, torch.Tensor]:
+        values = self.values.clone()
+        return {k: values[i] for k, i in self.index.items()}
 
 
 def default_device() -> str:
@@ -75,10 +112,12 @@ class ManagerBasedRLEnv(gym.Env):
         self.step_dt = cfg.decimation * cfg.sim.physics_dt_s
         self.max_episode_length_s = cfg.episode_length_s
         self.max_episode_length = math.ceil(cfg.episode_length_s / self.step_dt)
-        self.common_step_counter = 0
+        self.common_step_counter = None  # a device tensor, made below
 
         self.sim = Simulation(cfg.sim, cfg.robot, cfg.num_envs, device, self.step_dt)
         self.device = self.sim.device
+        self.common_step_counter = torch.zeros((), dtype=torch.long, device=self.device)
+        """Env steps since construction (all envs together), as a device tensor."""
         self.robot = self.sim.robot
         self.scene = {"robot": self.robot}
         self.env_origins = self.sim.env_origins
@@ -86,7 +125,12 @@ class ManagerBasedRLEnv(gym.Env):
         self.reset_buf = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
         self.sim_unstable = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
         self._all_envs = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
-        self._log: dict[str, torch.Tensor] = {}
+        self._log = EpisodeLog(self.device)
+        self._graph = None
+        self._capturing = False
+        self._eager_steps = 0
+        self._graph_outputs = None
+        self._action_buf = None
 
         # order matters: commands and actions exist before the observation terms that read them
         self.event_manager = EventManager(cfg.events, self)
@@ -117,13 +161,57 @@ class ManagerBasedRLEnv(gym.Env):
         self.episode_length_buf.zero_()
         self._reset_envs(self._all_envs)
         self.obs_buf = self.observation_manager.compute()
-        return self.obs_buf, {"log": dict(self._log)}
+        return self.obs_buf, {"log": self._log.snapshot()}
+
+    @property
+    def step_is_captured(self) -> bool:
+        return self.cfg.capture_step and self.sim.wp_device.is_cuda and self.sim.use_graph
 
     def step(self, action: torch.Tensor):
-        """Apply an action for `decimation` physics steps; finished envs are reset before the obs are computed."""
-        self.action_manager.process_action(action.to(self.device))
+        """Apply an action for `decimation` physics steps; finished envs are reset before the obs are computed.
+
+        Returns (obs, reward, terminated, truncated, extras); extras["time_outs"] equals truncated and
+        extras["log"] holds episode statistics of the envs that finished most recently.
+        """
+        action = action.to(self.device)
+        if not self.step_is_captured:
+            obs, reward, terminated, time_outs = self._step(action)
+        else:
+            obs, reward, terminated, time_outs = self._captured_step(action)
+        self.obs_buf = obs
+        self.extras = {"time_outs": time_outs, "log": self._log.snapshot()}
+        return obs, reward, terminated, time_outs, self.extras
+
+    WARMUP_STEPS_BEFORE_CAPTURE = 3
+
+    def _captured_step(self, action: torch.Tensor):
+        """Eager steps first (lazy allocations, first-call branches), then one capture, then replays."""
+        if self._graph is None and self._eager_steps < self.WARMUP_STEPS_BEFORE_CAPTURE:
+            self._eager_steps += 1
+            return self._step(action)
+        if self._graph is None:
+            self._action_buf = action.clone()
+            stream = torch.cuda.current_stream(self.device)
+            graph = torch.cuda.CUDAGraph()
+            with torch.cuda.graph(graph, stream=stream, capture_error_mode="thread_local"):
+                wp.capture_begin(device=self.sim.wp_device, stream=wp.stream_from_torch(stream), external=True)
+                self._capturing = True
+                try:
+                    self._graph_outputs = self._step(self._action_buf)
+                finally:
+                    self._capturing = False
+                    wp.capture_end(device=self.sim.wp_device, stream=wp.stream_from_torch(stream))
+            self._graph = graph
+        else:
+            self._action_buf.copy_(action)
+        self._graph.replay()
+        obs, reward, terminated, time_outs = self._graph_outputs
+        return obs.clone(), reward.clone(), terminated.clone(), time_outs.clone()
+
+    def _step(self, action: torch.Tensor):
+        self.action_manager.process_action(action)
         self.action_manager.apply_action()
-        self.sim.step(self.cfg.decimation)
+        self.sim.step(self.cfg.decimation, graph=not self._capturing)
         self.episode_length_buf += 1
         self.common_step_counter += 1
         self.robot.update()
@@ -141,13 +229,12 @@ class ManagerBasedRLEnv(gym.Env):
         reward = torch.where(self.sim_unstable, 0.0, self.reward_manager.compute(self.step_dt))
         reward = torch.nan_to_num(reward, nan=0.0, posinf=0.0, neginf=0.0)
 
-        self._log.update(self.curriculum_manager.compute(self.reset_buf))
+        self._log.write(self.curriculum_manager.compute(self.reset_buf))
         self._reset_envs(self.reset_buf)
         self.command_manager.compute(self.step_dt)
         self.event_manager.apply("interval", dt=self.step_dt)
-        self.obs_buf = self.observation_manager.compute()
-        self.extras = {"time_outs": time_outs.clone(), "log": dict(self._log)}
-        return self.obs_buf, reward.clone(), terminated.clone(), time_outs.clone(), self.extras
+        obs = self.observation_manager.compute()
+        return obs, reward, terminated, time_outs
 
     def close(self):
         pass
@@ -163,10 +250,8 @@ class ManagerBasedRLEnv(gym.Env):
         log["Episode/length_s"] = torch.where(env_mask, self.episode_length_buf, 0).sum() / count * self.step_dt
         for manager in (self.reward_manager, self.termination_manager):
             log.update(manager.reset(env_mask))
-        # logs describe finished episodes: keep the last value while no env finishes
-        for key, value in log.items():
-            held = self._log.get(key)
-            self._log[key] = value if held is None else torch.where(any_reset, value, held)
+        # logs describe finished episodes: keep the last values while no env finishes
+        self._log.write(log, hold_unless=any_reset)
 
         self.sim.reset_worlds(env_mask)
         robot = self.robot

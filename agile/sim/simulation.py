@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import mujoco_warp
 import newton
 import torch
 import warp as wp
@@ -140,6 +141,10 @@ class Simulation:
         self.solver = newton.solvers.SolverMuJoCo(
             self.model, iterations=s.iterations, ls_iterations=s.ls_iterations, njmax=s.njmax, nconmax=s.nconmax,
             cone=s.cone, impratio=s.impratio, integrator=s.integrator, solver=s.solver)
+        # a capped iteration count is a deliberate speed/accuracy trade-off in RL: do not print a warning
+        # from every world at every step when it is reached (capacity overflows still print)
+        quiet = mujoco_warp.OverflowType.ITERATIONS | mujoco_warp.OverflowType.LS_ITERATIONS
+        self.solver.mjw_model.opt.warn_overflow = int(self.solver.mjw_model.opt.warn_overflow) & ~int(quiet)
         self.state = self.model.state()
         self.control = self.model.control()
         self.robot = Articulation(self.model, self.state, self.control, joint_names, body_names, step_dt_s)
@@ -164,9 +169,13 @@ class Simulation:
                 callback()
             self.solver.step(self.state, self.state, self.control, None, self.physics_dt_s)
 
-    def step(self, num_steps: int) -> None:
-        """Advance every world by `num_steps` physics steps."""
-        if not self.use_graph:
+    def step(self, num_steps: int, graph: bool = True) -> None:
+        """Advance every world by `num_steps` physics steps.
+
+        graph=False launches the kernels one by one on the current stream: for a caller that is itself
+        recording a CUDA graph (the captured env step).
+        """
+        if not (self.use_graph and graph):
             with wp.ScopedDevice(self.wp_device):
                 self._physics_loop(num_steps)
             return

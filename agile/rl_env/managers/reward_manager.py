@@ -13,6 +13,10 @@ class RewardManager:
         self.env = env
         self.term_cfgs = collect_terms(cfg, RewTerm)
         self.funcs = {n: prepare_term(env, "reward", n, t) for n, t in self.term_cfgs.items()}
+        # live weights are device scalars, so a curriculum can change them inside a captured step;
+        # terms configured with weight 0 are not computed at all
+        self.weights = {name: torch.tensor(float(t.weight), device=env.device)
+                        for name, t in self.term_cfgs.items() if t.weight != 0.0}
         n = env.num_envs
         self.reward_buf = torch.zeros(n, device=env.device)
         self.episode_sums = {name: torch.zeros(n, device=env.device) for name in self.term_cfgs}
@@ -28,16 +32,22 @@ class RewardManager:
             raise KeyError(f"no reward term '{name}'. Terms: {self.active_terms}")
         return self.term_cfgs[name]
 
-    def set_term_weight(self, name: str, weight: float) -> None:
-        self.get_term_cfg(name).weight = float(weight)
+    def set_term_weight(self, name: str, weight: float | torch.Tensor) -> None:
+        """Set a term's live weight (the config keeps the initial one)."""
+        self.get_term_cfg(name)
+        if name not in self.weights:
+            raise ValueError(f"reward term '{name}' has weight 0 in the config and is not computed; "
+                             f"give it a non-zero initial weight to change it at run time")
+        if isinstance(weight, torch.Tensor):
+            self.weights[name].copy_(weight)
+        else:
+            self.weights[name].fill_(float(weight))
 
     def compute(self, dt: float) -> torch.Tensor:
         self.reward_buf.zero_()
-        for name, cfg in self.term_cfgs.items():
-            if cfg.weight == 0.0:
-                self.step_reward[name].zero_()
-                continue
-            value = self.funcs[name](self.env, **cfg.params) * cfg.weight
+        for name, weight in self.weights.items():
+            cfg = self.term_cfgs[name]
+            value = self.funcs[name](self.env, **cfg.params) * weight
             self.step_reward[name][:] = value
             self.reward_buf += value * dt
             self.episode_sums[name] += value * dt

@@ -6,6 +6,8 @@ from collections.abc import Callable
 from dataclasses import field
 from typing import Any
 
+import torch
+
 from agile.utils.config import configclass
 
 
@@ -22,17 +24,18 @@ class SceneEntityCfg:
     body_ids: Any = None
 
     def resolve(self, env) -> None:
+        """Regexes -> index tensors on the env's device (or a full slice), so indexing costs no host copy."""
         robot = env.scene[self.name]
         self.joint_ids = slice(None)
         self.body_ids = slice(None)
         if self.joint_names is not None:
             ids, _ = robot.find_joints(self.joint_names, self.preserve_order)
             if ids != list(range(robot.num_joints)):
-                self.joint_ids = ids
+                self.joint_ids = torch.tensor(ids, dtype=torch.long, device=env.device)
         if self.body_names is not None:
             ids, _ = robot.find_bodies(self.body_names, self.preserve_order)
             if ids != list(range(robot.num_bodies)):
-                self.body_ids = ids
+                self.body_ids = torch.tensor(ids, dtype=torch.long, device=env.device)
 
 
 @configclass

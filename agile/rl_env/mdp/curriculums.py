@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+import torch
+
 from agile.rl_env.managers import ManagerTermBase
 
 
@@ -20,11 +22,13 @@ class update_reward_weight_step(ManagerTermBase):  # noqa: N801 (AGILE's name)
                 raise ValueError("log-space ramps need start and terminal weights of the same sign, non-zero")
 
     def __call__(self, env, env_mask, reward_name: str, start_step: int, num_steps: int, terminal_weight: float,
-                 use_log_space: bool = False) -> float:
-        progress = min(max((env.common_step_counter - start_step) / max(num_steps, 1), 0.0), 1.0)
+                 use_log_space: bool = False) -> torch.Tensor:
+        # the step counter is a device tensor: the ramp runs inside a captured step without host syncs
+        steps = torch.as_tensor(env.common_step_counter, dtype=torch.float32, device=env.device)
+        progress = ((steps - start_step) / max(num_steps, 1)).clamp(0.0, 1.0)
         if use_log_space:
             log_w = (1 - progress) * math.log(abs(self.start_weight)) + progress * math.log(abs(terminal_weight))
-            weight = math.copysign(math.exp(log_w), terminal_weight)
+            weight = torch.exp(log_w) * math.copysign(1.0, terminal_weight)
         else:
             weight = self.start_weight + progress * (terminal_weight - self.start_weight)
         env.reward_manager.set_term_weight(reward_name, weight)

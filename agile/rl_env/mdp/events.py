@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import torch
 
 from agile.rl_env.managers import SceneEntityCfg
@@ -11,13 +13,21 @@ ROBOT = SceneEntityCfg("robot")
 AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 
 
-def _sample_ranges(ranges: dict[str, tuple[float, float]], n: int, device) -> torch.Tensor:
-    """(n, 6) uniform samples for x, y, z, roll, pitch, yaw; missing axes are 0."""
+@functools.lru_cache(maxsize=256)
+def _bounds(items: tuple, device) -> tuple[torch.Tensor, torch.Tensor]:
+    ranges = dict(items)
     unknown = set(ranges) - set(AXES)
     if unknown:
         raise ValueError(f"unknown range keys {sorted(unknown)}; expected a subset of {AXES}")
-    low = torch.tensor([ranges.get(a, (0.0, 0.0))[0] for a in AXES], device=device)
-    high = torch.tensor([ranges.get(a, (0.0, 0.0))[1] for a in AXES], device=device)
+    low = torch.tensor([float(ranges.get(a, (0.0, 0.0))[0]) for a in AXES], device=device)
+    high = torch.tensor([float(ranges.get(a, (0.0, 0.0))[1]) for a in AXES], device=device)
+    return low, high
+
+
+def _sample_ranges(ranges: dict[str, tuple[float, float]], n: int, device) -> torch.Tensor:
+    """(n, 6) uniform samples for x, y, z, roll, pitch, yaw; missing axes are 0. The bounds are made once
+    per distinct range dict, so a step makes no host-to-device copy."""
+    low, high = _bounds(tuple(sorted((k, tuple(v)) for k, v in ranges.items())), device)
     return torch.rand(n, 6, device=device) * (high - low) + low
 
 

@@ -16,8 +16,9 @@ class JointPositionAction(ActionTerm):
         super().__init__(cfg, env)
         robot = env.scene[cfg.asset_name]
         self.robot = robot
-        self.joint_ids, self.joint_names = robot.find_joints(cfg.joint_names, cfg.preserve_order)
-        n, dim = env.num_envs, len(self.joint_ids)
+        joint_ids, self.joint_names = robot.find_joints(cfg.joint_names, cfg.preserve_order)
+        self.joint_ids = torch.tensor(joint_ids, dtype=torch.long, device=env.device)
+        n, dim = env.num_envs, len(joint_ids)
         self.scale = self._per_joint(cfg.scale, 1.0)
         self.offset = robot.default_joint_pos[:, self.joint_ids].clone() if cfg.use_default_offset \
             else torch.zeros(n, dim, device=env.device)

@@ -1,0 +1,39 @@
+"""On the CUDA host: the captured env step behaves like the eager one (resets, logs, curricula)."""
+
+import gymnasium as gym
+import pytest
+import torch
+
+import agile.tasks  # noqa: F401
+
+pytestmark = pytest.mark.gpu
+
+
+def test_captured_step_resets_logs_and_ramps_weights():
+    env = gym.make("Velocity-T1-v0", num_envs=64, device="cuda:0",
+                   overrides=["episode_length_s=0.5", "curriculum.action_rate.params.start_step=0",
+                              "curriculum.action_rate.params.num_steps=40"]).unwrapped
+    assert env.step_is_captured
+    action = torch.zeros(64, env.action_manager.total_action_dim, device="cuda:0")
+    lengths = []
+    for _ in range(60):
+        obs, reward, terminated, truncated, extras = env.step(action)
+        lengths.append(env.episode_length_buf.clone())
+    assert env._graph is not None
+    assert int(env.common_step_counter) == 60
+    # episodes of 25 steps: time-outs happen and reset the counters inside the graph
+    assert max(int(x.max()) for x in lengths) <= 25
+    assert truncated.dtype == torch.bool and torch.isfinite(reward).all()
+    assert env.reward_manager.weights["action_rate"].item() == pytest.approx(-2.0)
+    assert extras["log"]["Episode/length_s"].item() > 0
+
+
+def test_captured_step_recovers_from_nan():
+    env = gym.make("Velocity-G1-History-v0", num_envs=32, device="cuda:0").unwrapped
+    action = torch.zeros(32, env.action_manager.total_action_dim, device="cuda:0")
+    for _ in range(5):
+        env.step(action)
+    env.robot.joint_vel[3, 0] = float("nan")
+    obs, reward, terminated, truncated, extras = env.step(action)
+    assert terminated[3] and extras["log"]["Episode_Termination/sim_unstable"].item() > 0
+    assert torch.isfinite(reward).all() and torch.isfinite(env.robot.joint_pos).all()
