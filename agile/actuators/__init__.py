@@ -1,5 +1,14 @@
-"""Actuator models and gain helpers."""
+"""Actuator models (implicit PD, ideal PD, DC motor, delayed DC motor) and gain helpers."""
 
+from agile.actuators.explicit import DCMotorCfg, DelayedDCMotorCfg, ExplicitActuatorGroup, IdealPDActuatorCfg
+from agile.actuators.gains import action_scale, armature_gains
 from agile.actuators.implicit import ImplicitActuatorCfg, JointValue
 
-__all__ = ["ImplicitActuatorCfg", "JointValue"]
+
+def is_explicit(cfg) -> bool:
+    """Whether an actuator cfg computes torques itself (joint_f) instead of handing gains to the solver."""
+    return isinstance(cfg, IdealPDActuatorCfg)
+
+
+__all__ = ["DCMotorCfg", "DelayedDCMotorCfg", "ExplicitActuatorGroup", "IdealPDActuatorCfg", "ImplicitActuatorCfg",
+           "JointValue", "action_scale", "armature_gains", "is_explicit"]

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from agile.actuators import ImplicitActuatorCfg
+from agile.actuators import DelayedDCMotorCfg, ImplicitActuatorCfg
 from agile.assets.files import asset_file
 from agile.sim import RobotCfg
 
@@ -31,18 +31,28 @@ T1_VELOCITY_LIMIT = {HEAD_JOINTS: 30.0, ARM_JOINTS: 30.0, WAIST_JOINTS: 32.0, ".
                      ".*Ankle.*": 32.0}
 T1_ARMATURE = 0.02
 T1_FRICTION = 0.01
+T1_SATURATION_EFFORT = 130.0  # [N·m]
+T1_MAX_DELAY_PHYSICS_STEPS = 8  # 0-40 ms at 200 Hz
+
+T1_GAINS = dict(joint_names_expr=[".*"], stiffness=T1_STIFFNESS, damping=T1_DAMPING, effort_limit=T1_EFFORT_LIMIT,
+                velocity_limit=T1_VELOCITY_LIMIT, armature=T1_ARMATURE, friction=T1_FRICTION)
+
+ACTUATOR_SETS = {
+    # AGILE `T1_DELAYED_DC_CFG`: one group, delayed DC motors
+    "delayed_dc_motor": lambda: {"all": DelayedDCMotorCfg(
+        **T1_GAINS, saturation_effort=T1_SATURATION_EFFORT, min_delay=0, max_delay=T1_MAX_DELAY_PHYSICS_STEPS)},
+    # the same gains handed to the solver's implicit PD
+    "implicit": lambda: {"all": ImplicitActuatorCfg(**T1_GAINS)},
+}
 
 
-def t1_robot_cfg() -> RobotCfg:
-    """T1 with implicit PD at the AGILE gains."""
+def t1_robot_cfg(actuators: str = "delayed_dc_motor") -> RobotCfg:
+    """T1 with an actuator set by name (see ACTUATOR_SETS)."""
+    if actuators not in ACTUATOR_SETS:
+        raise KeyError(f"unknown T1 actuator set '{actuators}'. Sets: {sorted(ACTUATOR_SETS)}")
     return RobotCfg(
         model_file=asset_file("booster_t1/t1.xml"),
         init_pos_m=(0.0, 0.0, INIT_HEIGHT_M),
         init_joint_pos=dict(INIT_JOINT_POS),
-        actuators={
-            "all": ImplicitActuatorCfg(
-                joint_names_expr=[".*"], stiffness=dict(T1_STIFFNESS), damping=dict(T1_DAMPING),
-                effort_limit=dict(T1_EFFORT_LIMIT), velocity_limit=dict(T1_VELOCITY_LIMIT),
-                armature=T1_ARMATURE, friction=T1_FRICTION),
-        },
+        actuators=ACTUATOR_SETS[actuators](),
     )

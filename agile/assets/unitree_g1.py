@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from agile.actuators import ImplicitActuatorCfg
+from agile.actuators import DelayedDCMotorCfg, ImplicitActuatorCfg, action_scale, armature_gains
 from agile.assets.files import asset_file
 from agile.sim import RobotCfg
 
@@ -21,7 +21,7 @@ INIT_JOINT_POS = {
 }
 INIT_HEIGHT_M = 0.76
 
-# AGILE `G1_29DOF_DELAYED_DC_MOTOR` parameters (reference section 4), per group.
+# AGILE `G1_29DOF_DELAYED_DC_MOTOR` gains and limits (reference section 4), per group.
 ARMATURE = 0.02
 LEGS = dict(effort_limit={".*_hip_.*": 88.0, ".*_knee_joint": 139.0},
             velocity_limit={".*_hip_.*": 32.0, ".*_knee_joint": 20.0},
@@ -41,17 +41,72 @@ ARMS = dict(effort_limit={".*_shoulder_.*|.*_elbow_joint|.*_wrist_roll_joint": 2
                      ".*_elbow_joint": 1.0, ".*_wrist_.*_joint": 0.2})
 
 
-def g1_robot_cfg() -> RobotCfg:
-    """G1 29-DoF with implicit PD at the AGILE gains; collider geoms switched on (see RobotCfg)."""
+MAX_DELAY_PHYSICS_STEPS = 4  # 0-20 ms at 200 Hz
+
+
+def _delayed_dc_motor_set() -> dict:
+    """AGILE `G1_29DOF_DELAYED_DC_MOTOR`: legs, feet and waist delayed 0-4 physics steps, arms undelayed."""
+    def group(expr, params, saturation, max_delay):
+        return DelayedDCMotorCfg(joint_names_expr=[expr], armature=ARMATURE, saturation_effort=saturation,
+                                 min_delay=0, max_delay=max_delay, **params)
+
+    return {"legs": group(LEG_JOINTS, LEGS, 180.0, MAX_DELAY_PHYSICS_STEPS),
+            "feet": group(FEET_JOINTS, FEET, 80.0, MAX_DELAY_PHYSICS_STEPS),
+            "waist": group(WAIST_JOINTS, WAIST, 120.0, MAX_DELAY_PHYSICS_STEPS),
+            "arms": group(ARM_JOINTS, ARMS, 40.0, 0)}
+
+
+# Motor reflected inertias [kg·m²] (BeyondMimic), gains from armature: kp = J·ωn², kd = 2ζ·J·ωn
+ARMATURE_5020 = 0.003609725
+ARMATURE_7520_14 = 0.010177520
+ARMATURE_7520_22 = 0.025101925
+ARMATURE_4010 = 0.00425
+ARMATURE_BY_GROUP = {  # joint regex: (armature, effort limit [N·m], velocity limit [rad/s])
+    ".*_hip_(pitch|yaw)_joint": (ARMATURE_7520_14, 88.0, 32.0),
+    ".*_hip_roll_joint|.*_knee_joint": (ARMATURE_7520_22, 139.0, 20.0),
+    ".*_ankle_.*_joint": (2 * ARMATURE_5020, 50.0, 37.0),
+    "waist_(roll|pitch)_joint": (2 * ARMATURE_5020, 50.0, 37.0),
+    "waist_yaw_joint": (ARMATURE_7520_14, 88.0, 32.0),
+    ".*_shoulder_.*_joint|.*_elbow_joint|.*_wrist_roll_joint": (ARMATURE_5020, 25.0, 37.0),
+    ".*_wrist_(pitch|yaw)_joint": (ARMATURE_4010, 5.0, 22.0),
+}
+ARMATURE_GAINS = {expr: armature_gains(j) for expr, (j, _, _) in ARMATURE_BY_GROUP.items()}
+ACTION_SCALE = {expr: action_scale(effort, ARMATURE_GAINS[expr][0])
+                for expr, (_, effort, _) in ARMATURE_BY_GROUP.items()}
+"""AGILE `G1_29DOF_ACTION_SCALE`: 0.25·effort/kp per joint group."""
+
+
+def _armature_implicit_set() -> dict:
+    """AGILE `G1_29DOF` gains (armature-derived), all implicit PD. AGILE delays the leg and foot targets by
+    0-4 physics steps (delayed implicit PD), which is not modelled here."""
+    return {"all": ImplicitActuatorCfg(
+        joint_names_expr=[".*"],
+        stiffness={e: g[0] for e, g in ARMATURE_GAINS.items()}, damping={e: g[1] for e, g in ARMATURE_GAINS.items()},
+        armature={e: v[0] for e, v in ARMATURE_BY_GROUP.items()},
+        effort_limit={e: v[1] for e, v in ARMATURE_BY_GROUP.items()},
+        velocity_limit={e: v[2] for e, v in ARMATURE_BY_GROUP.items()})}
+
+
+def _implicit_set() -> dict:
+    """The DC-motor gains handed to the solver's implicit PD."""
+    return {"legs": ImplicitActuatorCfg(joint_names_expr=[LEG_JOINTS], armature=ARMATURE, **LEGS),
+            "feet": ImplicitActuatorCfg(joint_names_expr=[FEET_JOINTS], armature=ARMATURE, **FEET),
+            "waist": ImplicitActuatorCfg(joint_names_expr=[WAIST_JOINTS], armature=ARMATURE, **WAIST),
+            "arms": ImplicitActuatorCfg(joint_names_expr=[ARM_JOINTS], armature=ARMATURE, **ARMS)}
+
+
+ACTUATOR_SETS = {"delayed_dc_motor": _delayed_dc_motor_set, "armature_implicit": _armature_implicit_set,
+                 "implicit": _implicit_set}
+
+
+def g1_robot_cfg(actuators: str = "delayed_dc_motor") -> RobotCfg:
+    """G1 29-DoF with an actuator set by name (see ACTUATOR_SETS); collider geoms switched on (see RobotCfg)."""
+    if actuators not in ACTUATOR_SETS:
+        raise KeyError(f"unknown G1 actuator set '{actuators}'. Sets: {sorted(ACTUATOR_SETS)}")
     return RobotCfg(
         model_file=asset_file("unitree_g1/g1_mjx.xml"),
         init_pos_m=(0.0, 0.0, INIT_HEIGHT_M),
         init_joint_pos=dict(INIT_JOINT_POS),
         enable_all_colliders=True,
-        actuators={
-            "legs": ImplicitActuatorCfg(joint_names_expr=[LEG_JOINTS], armature=ARMATURE, **LEGS),
-            "feet": ImplicitActuatorCfg(joint_names_expr=[FEET_JOINTS], armature=ARMATURE, **FEET),
-            "waist": ImplicitActuatorCfg(joint_names_expr=[WAIST_JOINTS], armature=ARMATURE, **WAIST),
-            "arms": ImplicitActuatorCfg(joint_names_expr=[ARM_JOINTS], armature=ARMATURE, **ARMS),
-        },
+        actuators=ACTUATOR_SETS[actuators](),
     )

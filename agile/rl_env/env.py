@@ -254,6 +254,7 @@ class ManagerBasedRLEnv(gym.Env):
         self._log.write(log, hold_unless=any_reset)
 
         self.sim.reset_worlds(env_mask)
+        self.sim.reset_actuators(env_mask)
         robot = self.robot
         default_pose = robot.default_root_pose.clone()
         default_pose[:, :3] += self.env_origins

@@ -24,7 +24,7 @@ class Articulation:
     """
 
     def __init__(self, model: newton.Model, state: newton.State, control: newton.Control,
-                 joint_names: list[str], body_names: list[str], step_dt_s: float):
+                 joint_names: list[str], body_names: list[str], step_dt_s: float, computed_effort: wp.array):
         n = model.world_count
         self.num_envs = n
         self.joint_names = list(joint_names)
@@ -54,7 +54,11 @@ class Articulation:
         # -- views of the control
         self.joint_pos_target = wp.to_torch(control.joint_target_q).view(n, -1)[:, 7:]
         self.joint_vel_target = wp.to_torch(control.joint_target_qd).view(n, -1)[:, 6:]
-        self.joint_effort_target = wp.to_torch(control.joint_f).view(n, -1)[:, 6:]
+        self.joint_effort_target = wp.to_torch(control.joint_act).view(n, -1)[:, 6:]  # feedforward [N·m]
+        self._explicit_torque = wp.to_torch(control.joint_f).view(n, -1)[:, 6:]
+        self._explicit_computed_torque = wp.to_torch(computed_effort).view(n, -1)[:, 6:]
+        self.explicit_joints = torch.zeros(self.num_joints, dtype=torch.bool, device=self.device)
+        """Joints driven by explicit actuators (torques in joint_f) rather than the solver's implicit PD."""
         # -- views of per-world model parameters (domain randomisation writes these)
         self.joint_stiffness = wp.to_torch(model.joint_target_ke).view(n, -1)[:, 6:]
         self.joint_damping = wp.to_torch(model.joint_target_kd).view(n, -1)[:, 6:]
@@ -115,11 +119,18 @@ class Articulation:
         self.joint_acc[:] = (self.joint_vel - self._prev_joint_vel) / self._step_dt_s
         self._prev_joint_vel[:] = self.joint_vel
 
+    def set_explicit_joints(self, joint_ids: list[int]) -> None:
+        self.explicit_joints.zero_()
+        self.explicit_joints[joint_ids] = True
+
     def compute_pd_torque(self) -> None:
-        """Torque an implicit PD drive applies with the current targets, clipped to the effort limit."""
-        self.computed_torque[:] = self.joint_stiffness * (self.joint_pos_target - self.joint_pos) + \
+        """Refresh computed/applied torques: the explicit actuators' last physics step, and for implicit
+        joints the PD law at the current state (clipped to the effort limit), as Isaac Lab estimates it."""
+        estimate = self.joint_stiffness * (self.joint_pos_target - self.joint_pos) + \
             self.joint_damping * (self.joint_vel_target - self.joint_vel) + self.joint_effort_target
-        torch.clamp(self.computed_torque, -self.joint_effort_limit, self.joint_effort_limit, out=self.applied_torque)
+        clipped = torch.clamp(estimate, -self.joint_effort_limit, self.joint_effort_limit)
+        torch.where(self.explicit_joints, self._explicit_computed_torque, estimate, out=self.computed_torque)
+        torch.where(self.explicit_joints, self._explicit_torque, clipped, out=self.applied_torque)
 
     # -- writes (masked, no host sync) -----------------------------------------------------------
 

@@ -10,6 +10,7 @@ import newton
 import torch
 import warp as wp
 
+from agile.actuators import ExplicitActuatorGroup, is_explicit
 from agile.sim.articulation import Articulation
 from agile.sim.names import resolve_names, resolve_values
 from agile.sim.sim_cfg import RobotCfg, SimCfg
@@ -105,8 +106,10 @@ def apply_actuator_to_builder(builder: newton.ModelBuilder, act, joint_names: li
             return {ids[k]: v for k, v in resolve_values(value, names).items()}
         return {i: float(value) for i in ids}
 
+    # explicit actuators compute torques themselves (joint_f): the solver must not add its own PD
+    mode = newton.JointTargetMode.EFFORT if is_explicit(act) else newton.JointTargetMode.POSITION
     for i in ids:
-        builder.joint_target_mode[6 + i] = int(newton.JointTargetMode.POSITION)
+        builder.joint_target_mode[6 + i] = int(mode)
     for field_name, attr in (("stiffness", "joint_target_ke"), ("damping", "joint_target_kd"),
                              ("effort_limit", "joint_effort_limit"), ("velocity_limit", "joint_velocity_limit"),
                              ("armature", "joint_armature"), ("friction", "joint_friction")):
@@ -147,15 +150,33 @@ class Simulation:
         self.solver.mjw_model.opt.warn_overflow = int(self.solver.mjw_model.opt.warn_overflow) & ~int(quiet)
         self.state = self.model.state()
         self.control = self.model.control()
-        self.robot = Articulation(self.model, self.state, self.control, joint_names, body_names, step_dt_s)
+        self.computed_effort = wp.zeros_like(self.state.joint_qd)
+        """Explicit actuators' torque before clipping, per DoF (their clipped torque is control.joint_f)."""
+        self.robot = Articulation(self.model, self.state, self.control, joint_names, body_names, step_dt_s,
+                                  self.computed_effort)
+        self.actuator_groups: list[ExplicitActuatorGroup] = []
+        for name, act in robot_cfg.actuators.items():
+            if not is_explicit(act):
+                continue
+            ids, _ = self.robot.find_joints(act.joint_names_expr)
+            values = {"stiffness": self.robot.joint_stiffness[0, ids], "damping": self.robot.joint_damping[0, ids],
+                      "effort_limit": self.robot.joint_effort_limit[0, ids],
+                      "velocity_limit": self.robot.joint_vel_limit[0, ids]}
+            if getattr(act, "saturation_effort", None) is not None:
+                values["saturation_effort"] = torch.tensor(
+                    [v for _, v in sorted(resolve_values(act.saturation_effort,
+                                                         [joint_names[i] for i in ids]).items())])
+            elif hasattr(act, "saturation_effort"):
+                raise ValueError(f"actuator group '{name}': a DC motor needs saturation_effort")
+            self.actuator_groups.append(ExplicitActuatorGroup(
+                name, act, ids, values, self.state, self.control, self.computed_effort, num_envs, self.device))
+        self.robot.set_explicit_joints([i for g in self.actuator_groups for i in g.joint_ids.tolist()])
         self.env_origins = env_origins_grid(num_envs, cfg.env_spacing_m, self.device)
         # world mask for solver.reset: one entry per world plus the global world (-1), which stays False
         self._world_mask = torch.zeros(num_envs + 1, dtype=torch.bool, device=self.device)
         self._world_mask_wp = wp.from_torch(self._world_mask, dtype=wp.bool)
         self._fk_mask_wp = wp.from_torch(self._world_mask[:num_envs], dtype=wp.bool)
         self._graphs: dict[int, object] = {}
-        self.pre_physics_callbacks: list = []
-        """Called before every physics step, inside the captured loop (Warp launches only)."""
 
     @property
     def use_graph(self) -> bool:
@@ -164,9 +185,9 @@ class Simulation:
         return self.wp_device.is_cpu or wp.is_mempool_enabled(self.wp_device)
 
     def _physics_loop(self, num_steps: int) -> None:
-        for _ in range(num_steps):
-            for callback in self.pre_physics_callbacks:
-                callback()
+        for substep in range(num_steps):
+            for group in self.actuator_groups:
+                group.step(self.physics_dt_s, substep, num_steps)
             self.solver.step(self.state, self.state, self.control, None, self.physics_dt_s)
 
     def step(self, num_steps: int, graph: bool = True) -> None:
@@ -195,6 +216,11 @@ class Simulation:
         """
         self._world_mask[: self.num_envs].copy_(mask)
         self.solver.reset(self.state, world_mask=self._world_mask_wp)
+
+    def reset_actuators(self, mask: torch.Tensor) -> None:
+        """Clear actuator state (delay buffers) and draw new per-env delays where mask (N,) is True."""
+        for group in self.actuator_groups:
+            group.reset(mask)
 
     def forward(self, mask: torch.Tensor | None = None) -> None:
         """Recompute body poses from joint coordinates (forward kinematics), in the worlds of `mask`."""
