@@ -5,7 +5,8 @@
 
 For each env count, from one process on one device: raw physics (the captured decimation loop alone, no
 managers), env.step with random actions and its ratio to raw physics, PPO training (rollout + update) and
-its ratio, startup (gym.make to the first step done) and peak device memory.
+its ratio, startup (gym.make to the first step done), device memory in use, and the share of the env
+step spent in the explicit actuators (raw physics with and without them).
 """
 
 from __future__ import annotations
@@ -48,15 +49,20 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     synchronize(env.device)
     startup_s = time.perf_counter() - start
 
-    # raw physics: the captured decimation loop on the same world, no managers
-    for _ in range(5):
-        env.sim.step(env.cfg.decimation)
-    synchronize(env.device)
-    start = time.perf_counter()
-    for _ in range(steps):
-        env.sim.step(env.cfg.decimation)
-    synchronize(env.device)
-    raw = n * steps / (time.perf_counter() - start)
+    # raw physics: the captured decimation loop on the same world (with the actuators), no managers
+    def physics_rate() -> float:
+        for _ in range(5):
+            env.sim.step(env.cfg.decimation)
+        synchronize(env.device)
+        start = time.perf_counter()
+        for _ in range(steps):
+            env.sim.step(env.cfg.decimation)
+        synchronize(env.device)
+        return n * steps / (time.perf_counter() - start)
+
+    raw = physics_rate()
+    with env.sim.actuators_disabled():
+        raw_without_actuators = physics_rate()
     env.reset()
 
     actions = torch.rand(steps, n, action_dim, device=env.device) * 2 - 1
@@ -79,7 +85,9 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     train = n * agent_cfg.num_steps_per_env * train_iterations / (time.perf_counter() - start)
     memory = device_memory_used_gb(env.device)
     env.close()
-    return {"num_envs": n, "raw_physics": raw, "env_step": full, "env_step_ratio": full / raw,
+    actuator_s = n / raw - n / raw_without_actuators  # per env step
+    return {"num_envs": n, "raw_physics": raw, "raw_physics_without_actuators": raw_without_actuators,
+            "actuator_share_of_env_step": actuator_s / (n / full), "env_step": full, "env_step_ratio": full / raw,
             "train": train, "train_ratio": train / raw, "startup_s": startup_s, "device_memory_gb": memory}
 
 
@@ -109,11 +117,12 @@ def main(argv=None) -> None:
     name = torch.cuda.get_device_name() if str(device).startswith("cuda") else "CPU"
     print(f"\n{args.task} on {name} (env-steps/s; ratios to raw physics)")
     print(f"{'envs':>7} {'raw physics':>12} {'env.step':>10} {'ratio':>6} {'train':>10} {'ratio':>6} "
-          f"{'startup s':>9} {'mem GB':>7}")
+          f"{'startup s':>9} {'mem GB':>7} {'actuators':>9}")
     for r in rows:
         mem = f"{r['device_memory_gb']:.1f}" if r["device_memory_gb"] is not None else "-"
         print(f"{r['num_envs']:>7} {r['raw_physics']:>12.0f} {r['env_step']:>10.0f} {r['env_step_ratio']:>6.2f} "
-              f"{r['train']:>10.0f} {r['train_ratio']:>6.2f} {r['startup_s']:>9.1f} {mem:>7}")
+              f"{r['train']:>10.0f} {r['train_ratio']:>6.2f} {r['startup_s']:>9.1f} {mem:>7} "
+              f"{100 * r['actuator_share_of_env_step']:>8.1f}%")
     if args.out:
         with open(args.out, "w") as f:
             json.dump({"task": args.task, "device": name, "results": rows}, f, indent=2)

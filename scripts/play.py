@@ -10,11 +10,11 @@ Headless by default. Observation noise and curricula are switched off for playin
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import time
 
 from utils import cli
+from utils.policy import inference_cfg, load_policy
 
 
 def sinusoidal_actions(step: int, step_dt: float, num_envs: int, action_dim: int, device):
@@ -25,29 +25,6 @@ def sinusoidal_actions(step: int, step_dt: float, num_envs: int, action_dim: int
     freq_hz = 0.5 + 0.2 * torch.remainder(i, 5)
     t = step * step_dt
     return (0.5 * torch.sin(2 * math.pi * freq_hz * t + i * math.pi / action_dim)).expand(num_envs, -1)
-
-
-def play_cfg(env_cfg):
-    """The env cfg for playing: no observation noise, no curriculum."""
-    from agile.rl_env.managers import ObsGroup
-
-    for f in dataclasses.fields(env_cfg.observations):
-        group = getattr(env_cfg.observations, f.name)
-        if isinstance(group, ObsGroup):
-            group.enable_corruption = False
-    env_cfg.curriculum = None
-    return env_cfg
-
-
-def load_policy(checkpoint: str, env, agent_cfg):
-    from rsl_rl.runners import OnPolicyRunner
-
-    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
-
-    wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
-    runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
-    runner.load(checkpoint, map_location=str(env.device))
-    return runner.get_inference_policy(device=str(env.device))
 
 
 def main(argv=None) -> None:
@@ -63,9 +40,7 @@ def main(argv=None) -> None:
     env_cfg, agent_cfg, device = cli.load_task(args)
     import torch
 
-    from agile.rl_env.rsl_rl import flatten_groups
-
-    env = cli.make_env(args.task, play_cfg(env_cfg), device)
+    env = cli.make_env(args.task, inference_cfg(env_cfg), device)
     policy = load_policy(args.checkpoint, env, agent_cfg) if args.checkpoint else None
     print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
           f"{'policy ' + args.checkpoint if policy else 'sinusoidal test actions'}")
@@ -86,7 +61,7 @@ def main(argv=None) -> None:
         for step in range(args.num_steps):
             start = time.perf_counter()
             if policy is not None:
-                actions = policy(flatten_groups(obs))
+                actions = policy(obs)
             else:
                 actions = sinusoidal_actions(step, env.step_dt, env.num_envs, env.action_manager.total_action_dim,
                                              env.device)

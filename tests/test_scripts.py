@@ -1,8 +1,11 @@
 """The scripts as a user runs them (subprocesses, CPU)."""
 
+import json
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -12,18 +15,25 @@ def run(*args, timeout=600):
     return result.returncode, result.stdout + result.stderr
 
 
+@pytest.fixture(scope="module")
+def trained_run(tmp_path_factory):
+    """A 2-iteration T1 training run on CPU: (its log folder, the train command line)."""
+    log_root = tmp_path_factory.mktemp("logs")
+    args = ["scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "2",
+            "--device", "cpu", "--log_root", str(log_root), "agent.num_steps_per_env=4"]
+    code, out = run(*args)
+    assert code == 0, out
+    return next((log_root / "velocity_t1").iterdir()), args
+
+
 def test_help_of_every_script():
-    for script in ("train.py", "play.py", "benchmark.py"):
+    for script in ("train.py", "play.py", "eval.py", "benchmark.py"):
         code, out = run(f"scripts/{script}", "--help")
         assert code == 0 and "--task" in out, out
 
 
-def test_train_writes_checkpoint_logs_and_configs_then_resumes(tmp_path):
-    args = ["scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "2",
-            "--device", "cpu", "--log_root", str(tmp_path), "agent.num_steps_per_env=4"]
-    code, out = run(*args)
-    assert code == 0, out
-    run_dir = next((tmp_path / "velocity_t1").iterdir())
+def test_train_writes_checkpoint_logs_and_configs_then_resumes(trained_run):
+    run_dir, args = trained_run
     assert (run_dir / "model_1.pt").is_file()
     assert (run_dir / "params" / "env.yaml").is_file() and (run_dir / "params" / "agent.yaml").is_file()
     assert list(run_dir.glob("events.out.tfevents.*"))
@@ -49,3 +59,18 @@ def test_benchmark_runs_on_cpu(tmp_path):
     code, out = run("scripts/benchmark.py", "--task", "Velocity-T1-v0", "--device", "cpu", "--num_envs", "2",
                     "--steps", "5", "--train_iterations", "1", "--out", str(out_file))
     assert code == 0 and out_file.is_file(), out
+
+
+def test_play_and_eval_run_a_checkpoint(trained_run, tmp_path):
+    run_dir, _ = trained_run
+    checkpoint = str(sorted(run_dir.glob("model_*.pt"))[-1])
+    code, out = run("scripts/play.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--num_steps", "5",
+                    "--device", "cpu", "--checkpoint", checkpoint)
+    assert code == 0 and "5 steps" in out, out
+    metrics_file = tmp_path / "eval.json"
+    code, out = run("scripts/eval.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--device", "cpu",
+                    "--checkpoint", checkpoint, "--episode_length_s", "0.5", "--out", str(metrics_file))
+    assert code == 0, out
+    metrics = json.loads(metrics_file.read_text())
+    assert metrics["episodes"] >= 2 and 0.0 <= metrics["fall_rate"] <= 1.0
+    assert metrics["lin_vel_error_mps"] >= 0.0 and "track_lin_vel_xy_exp" in metrics["reward_per_step"]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 from pathlib import Path
 
@@ -216,6 +217,17 @@ class Simulation:
         """
         self._world_mask[: self.num_envs].copy_(mask)
         self.solver.reset(self.state, world_mask=self._world_mask_wp)
+
+    @contextlib.contextmanager
+    def actuators_disabled(self):
+        """Step without the explicit actuators (for measuring their cost); graphs are recaptured around it."""
+        groups, self.actuator_groups = self.actuator_groups, []
+        self._graphs.clear()
+        try:
+            yield
+        finally:
+            self.actuator_groups = groups
+            self._graphs.clear()
 
     def reset_actuators(self, mask: torch.Tensor) -> None:
         """Clear actuator state (delay buffers) and draw new per-env delays where mask (N,) is True."""

@@ -1,0 +1,30 @@
+"""Loading trained policies and preparing env configs for running them."""
+
+from __future__ import annotations
+
+import dataclasses
+
+
+def inference_cfg(env_cfg):
+    """The env cfg for running a policy: no observation noise, no curriculum."""
+    from agile.rl_env.managers import ObsGroup
+
+    for f in dataclasses.fields(env_cfg.observations):
+        group = getattr(env_cfg.observations, f.name)
+        if isinstance(group, ObsGroup):
+            group.enable_corruption = False
+    env_cfg.curriculum = None
+    return env_cfg
+
+
+def load_policy(checkpoint: str, env, agent_cfg):
+    """The deterministic actor of an RSL-RL checkpoint, as a callable on the env's observation TensorDict."""
+    from rsl_rl.runners import OnPolicyRunner
+
+    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, flatten_groups, to_rsl_rl_dict
+
+    wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
+    runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
+    runner.load(checkpoint, map_location=str(env.device))
+    actor = runner.get_inference_policy(device=str(env.device))
+    return lambda obs: actor(flatten_groups(obs))
