@@ -191,16 +191,19 @@ class ManagerBasedRLEnv(gym.Env):
             return self._step(action)
         if self._graph is None:
             self._action_buf = action.clone()
-            stream = torch.cuda.current_stream(self.device)
+            # torch records on Warp's stream (Simulation made it torch's current stream), and Warp is told
+            # that this stream object is capturing, so its conditional loops become graph nodes
+            wp_stream = wp.get_stream(self.sim.wp_device)
+            stream = wp.stream_to_torch(wp_stream)
             graph = torch.cuda.CUDAGraph()
             with torch.cuda.graph(graph, stream=stream, capture_error_mode="thread_local"):
-                wp.capture_begin(device=self.sim.wp_device, stream=wp.stream_from_torch(stream), external=True)
+                wp.capture_begin(device=self.sim.wp_device, stream=wp_stream, external=True)
                 self._capturing = True
                 try:
                     self._graph_outputs = self._step(self._action_buf)
                 finally:
                     self._capturing = False
-                    wp.capture_end(device=self.sim.wp_device, stream=wp.stream_from_torch(stream))
+                wp.capture_end(device=self.sim.wp_device, stream=wp_stream)
             self._graph = graph
         else:
             self._action_buf.copy_(action)
