@@ -106,9 +106,9 @@ class RewardsCfg:
 @configclass
 class TerminationsCfg:
     time_out = DoneTerm(func=mdp.time_out, time_out=True)
-    bad_orientation = DoneTerm(func=mdp.bad_orientation,
-                               params={"limit_angle_rad": math.radians(30.0),
-                                       "asset_cfg": SceneEntityCfg("robot", body_names="torso_link")})
+    # on the pelvis (the root): the torso tilts with the two controlled waist joints, and a torso limit
+    # ends nearly every early episode (measured: 100% of terminations at iteration 50, policy std collapsing)
+    bad_orientation = DoneTerm(func=mdp.bad_orientation, params={"limit_angle_rad": math.radians(30.0)})
     illegal_base_height = DoneTerm(func=mdp.root_height_below_minimum,
                                    params={"minimum_height_m": BASE_HEIGHT_TARGET_M - 0.3})
 
