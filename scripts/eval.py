@@ -1,10 +1,12 @@
 """Evaluate a policy over the task's command range: tracking errors, fall rate, episode length, rewards.
 
-    python scripts/eval.py --task Velocity-G1-History-v0 --checkpoint model.pt --num_envs 256 --num_episodes 2
+    python scripts/eval.py --task Velocity-G1-History-v0 --num_envs 256 --num_episodes 2   # shipped policy
     python scripts/eval.py --task Velocity-T1-v0 --checkpoint model.pt --device cpu --num_envs 2 --out eval.json
+    python scripts/eval.py --task Velocity-G1-History-v0 --device cpu --num_envs 2 --command 0.5 0 0   # walk
 
 Each env runs `num_episodes` episodes of `episode_length_s` (pushes off unless --pushes). Commands are
-drawn by the task's command term (uniform over its ranges, a share standing). Prints and writes JSON.
+drawn by the task's command term (uniform over its ranges, a share standing), or fixed with --command.
+Without --checkpoint the policy shipped with agile for the task is evaluated. Prints and writes JSON.
 """
 
 from __future__ import annotations
@@ -62,7 +64,9 @@ def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity"
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     cli.add_common_args(parser)
-    parser.add_argument("--checkpoint", required=True, help="RSL-RL checkpoint (model_<it>.pt)")
+    parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (default: the shipped policy)")
+    parser.add_argument("--command", type=float, nargs=3, default=None, metavar=("VX", "VY", "WZ"),
+                        help="a fixed velocity command [m/s, m/s, rad/s] for every env")
     parser.add_argument("--num_episodes", type=int, default=1, help="episodes per env")
     parser.add_argument("--episode_length_s", type=float, default=20.0)
     parser.add_argument("--pushes", action="store_true", help="keep the task's interval events (pushes)")
@@ -70,7 +74,18 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
 
     env_cfg, agent_cfg, device = cli.load_task(args)
+    import agile.tasks
+
+    checkpoint = args.checkpoint or agile.tasks.pretrained_policy(args.task)
+    if checkpoint is None:
+        raise SystemExit(f"error: no --checkpoint given and agile ships no policy for {args.task}")
+    checkpoint = str(checkpoint)
     env_cfg = inference_cfg(env_cfg)
+    if args.command is not None:
+        command = env_cfg.commands.base_velocity
+        vx, vy, wz = args.command
+        command.ranges.lin_vel_x, command.ranges.lin_vel_y, command.ranges.ang_vel_z = (vx, vx), (vy, vy), (wz, wz)
+        command.rel_standing_envs = 0.0
     env_cfg.episode_length_s = args.episode_length_s
     if not args.pushes and env_cfg.events is not None:
         from agile.rl_env.managers import EventTerm
@@ -79,8 +94,8 @@ def main(argv=None) -> None:
             if isinstance(term, EventTerm) and term.mode == "interval":
                 setattr(env_cfg.events, name, None)
     env = cli.make_env(args.task, env_cfg, device)
-    metrics = evaluate(env, load_policy(args.checkpoint, env, agent_cfg), args.num_episodes)
-    metrics.update({"task": args.task, "checkpoint": args.checkpoint, "device": device,
+    metrics = evaluate(env, load_policy(checkpoint, env, agent_cfg), args.num_episodes)
+    metrics.update({"task": args.task, "checkpoint": checkpoint, "device": device, "command": args.command,
                     "episode_length_s": args.episode_length_s, "pushes": args.pushes})
     print(json.dumps(metrics, indent=2))
     if args.out:

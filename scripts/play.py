@@ -1,10 +1,12 @@
-"""Run a task: sinusoidal test actions without a checkpoint, or a trained policy with one.
+"""Run a task with a policy: a checkpoint, the policy shipped with agile, or sinusoidal test actions.
 
-    python scripts/play.py --task Velocity-G1-History-v0 --num_envs 2 --num_steps 50
+    python scripts/play.py --task Velocity-G1-History-v0 --num_envs 2 --num_steps 50   # shipped policy
     python scripts/play.py --task Velocity-T1-v0 --checkpoint logs/rsl_rl/velocity_t1/<run>/model_3000.pt
-    python scripts/play.py --task Velocity-T1-v0 --viewer viser          # browser viewer on http://localhost:8080
+    python scripts/play.py --task Velocity-T1-v0 --sinusoidal       # test actions, no policy
+    python scripts/play.py --task Velocity-G1-History-v0 --viewer viser   # browser viewer on http://localhost:8080
 
-Headless by default. Observation noise and curricula are switched off for playing.
+Without --checkpoint the task's shipped policy runs if agile has one (agile/data/policy/), else
+sinusoidal test actions. Headless by default. Observation noise and curricula are switched off.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     cli.add_common_args(parser)
     parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (model_<it>.pt) to run")
+    parser.add_argument("--sinusoidal", action="store_true", help="sinusoidal test actions instead of a policy")
     parser.add_argument("--num_steps", type=int, default=1000, help="env steps to run")
     parser.add_argument("--viewer", choices=["none", "viser"], default="none", help="viser: browser viewer")
     parser.add_argument("--port", type=int, default=8080, help="viser port")
@@ -40,10 +43,15 @@ def main(argv=None) -> None:
     env_cfg, agent_cfg, device = cli.load_task(args)
     import torch
 
+    import agile.tasks
+
+    checkpoint = args.checkpoint
+    if checkpoint is None and not args.sinusoidal and agile.tasks.pretrained_policy(args.task) is not None:
+        checkpoint = str(agile.tasks.pretrained_policy(args.task))
     env = cli.make_env(args.task, inference_cfg(env_cfg), device)
-    policy = load_policy(args.checkpoint, env, agent_cfg) if args.checkpoint else None
+    policy = load_policy(checkpoint, env, agent_cfg) if checkpoint and not args.sinusoidal else None
     print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
-          f"{'policy ' + args.checkpoint if policy else 'sinusoidal test actions'}")
+          f"{'policy ' + checkpoint if policy else 'sinusoidal test actions'}")
 
     viewer = None
     if args.viewer == "viser":

@@ -74,3 +74,15 @@ def test_play_and_eval_run_a_checkpoint(trained_run, tmp_path):
     metrics = json.loads(metrics_file.read_text())
     assert metrics["episodes"] >= 2 and 0.0 <= metrics["fall_rate"] <= 1.0
     assert metrics["lin_vel_error_mps"] >= 0.0 and "track_lin_vel_xy_exp" in metrics["reward_per_step"]
+
+
+def test_shipped_g1_policy_stands_and_walks_on_cpu(tmp_path):
+    for command in (["0", "0", "0"], ["0.5", "0", "0"]):
+        out_file = tmp_path / "eval.json"
+        code, out = run("scripts/eval.py", "--task", "Velocity-G1-History-v0", "--device", "cpu", "--num_envs", "2",
+                        "--episode_length_s", "4", "--command", *command, "--out", str(out_file))
+        assert code == 0, out
+        metrics = json.loads(out_file.read_text())
+        assert metrics["checkpoint"].endswith("Velocity-G1-History-v0.pt")
+        assert metrics["fall_rate"] == 0.0 and metrics["mean_episode_length_s"] == pytest.approx(4.0)
+        assert metrics["lin_vel_error_mps"] < 0.2, metrics

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import gymnasium as gym
 
 from agile.tasks.locomotion import g1, t1  # noqa: F401  (registration side effect)
@@ -25,3 +27,12 @@ def load_cfgs(task: str):
     """(env cfg, agent cfg) instances of a registered task."""
     kwargs = task_spec(task).kwargs
     return load_entry_point(kwargs["env_cfg_entry_point"])(), load_entry_point(kwargs["rsl_rl_cfg_entry_point"])()
+
+
+PRETRAINED_DIR = Path(__file__).resolve().parents[1] / "data" / "policy"
+
+
+def pretrained_policy(task: str) -> Path | None:
+    """The policy shipped with agile for a task (agile/data/policy/<task>.pt), if there is one."""
+    path = PRETRAINED_DIR / f"{task}.pt"
+    return path if path.is_file() else None

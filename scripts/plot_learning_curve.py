@@ -1,0 +1,61 @@
+"""Plot learning curves from RSL-RL tensorboard event files (needs matplotlib: pip install matplotlib).
+
+    python scripts/plot_learning_curve.py --run "G1=logs/.../events.out.tfevents.*" --out docs/curve.png
+
+A run given as several files (comma-separated) is concatenated in order, e.g. a run and its resumption.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+TAGS = {"Train/mean_episode_length": "mean episode length [steps]", "Train/mean_reward": "mean reward",
+        "Episode_Reward/track_lin_vel_xy_exp": "linear velocity tracking reward"}
+
+
+def read_scalars(files: list[str], tag: str) -> tuple[list[int], list[float]]:
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    steps, values = [], []
+    for path in files:
+        events = EventAccumulator(path, size_guidance={"scalars": 0})
+        events.Reload()
+        if tag not in events.Tags()["scalars"]:
+            continue
+        for event in events.Scalars(tag):
+            if steps and event.step <= steps[-1]:
+                continue  # a resumed run repeats its first iteration
+            steps.append(event.step)
+            values.append(event.value)
+    return steps, values
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--run", action="append", required=True, help="LABEL=file[,file...]")
+    parser.add_argument("--out", required=True, help="PNG file")
+    parser.add_argument("--title", default="")
+    args = parser.parse_args(argv)
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(TAGS), figsize=(5 * len(TAGS), 4))
+    for run in args.run:
+        label, _, files = run.partition("=")
+        for ax, (tag, name) in zip(axes, TAGS.items()):
+            steps, values = read_scalars(files.split(","), tag)
+            ax.plot(steps, values, label=label)
+            ax.set_xlabel("PPO iteration")
+            ax.set_ylabel(name)
+    axes[0].legend()
+    fig.suptitle(args.title)
+    fig.tight_layout()
+    fig.savefig(args.out, dpi=110)
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
