@@ -113,3 +113,42 @@ def test_tasks_run_on_delayed_dc_motors(t1_env):
     t1_env.step(torch.full((t1_env.num_envs, 12), 0.3))
     assert (robot.applied_torque.abs() <= robot.joint_effort_limit + 1e-4).all()
     assert robot.applied_torque.abs().sum() > 0
+
+
+@pytest.mark.parametrize("delay", [1, 3])
+def test_delayed_implicit_shifts_the_solver_targets_by_k_steps_and_restores_the_command(delay):
+    from agile.actuators import DelayedImplicitActuatorCfg, DelayedTargetGroup
+
+    n = 1
+    control = SimpleNamespace(joint_target_q=wp.zeros(n * (7 + J), dtype=float),
+                              joint_target_qd=wp.zeros(n * (6 + J), dtype=float))
+    group = DelayedTargetGroup("legs", DelayedImplicitActuatorCfg(min_delay=delay, max_delay=delay), [0, 1], control,
+                               n, torch.device("cpu"))
+    group.reset(torch.ones(n, dtype=torch.bool))
+    target = wp.to_torch(control.joint_target_q).view(n, -1)[:, 7:]
+    seen = []
+    for env_step in range(3):
+        if env_step == 1:
+            target[:] = 0.5  # a new setpoint at the second env step (physics step 4)
+        for substep in range(4):
+            group.step(0.005, substep, 4)
+            seen.append(target[0, 0].item())  # what the solver sees at this physics step
+        group.after_physics()
+        assert target[0, 0].item() == (0.5 if env_step >= 1 else 0.0)  # the command is back
+    assert seen == pytest.approx([0.0 if k < 4 + delay else 0.5 for k in range(12)])
+
+
+def test_g1_armature_set_builds_with_delayed_implicit_legs():
+    from agile.actuators import DelayedTargetGroup
+    from agile.assets.unitree_g1 import g1_robot_cfg
+    from agile.sim import SimCfg, Simulation
+
+    sim = Simulation(SimCfg(), g1_robot_cfg("armature_delayed_implicit"), 2, "cpu", 0.02)
+    groups = [g for g in sim.actuator_groups if isinstance(g, DelayedTargetGroup)]
+    assert len(groups) == 1 and len(groups[0].joint_ids) == 12
+    knee = sim.robot.find_joints("left_knee_joint")[0][0]
+    assert sim.robot.joint_stiffness[0, knee].item() == pytest.approx(99.098, rel=1e-3)
+    assert not sim.robot.explicit_joints.any()
+    sim.reset_actuators(torch.ones(2, dtype=torch.bool))
+    sim.step(4)
+    assert torch.isfinite(sim.robot.joint_pos).all()

@@ -1,5 +1,6 @@
-"""Actuator models (implicit PD, ideal PD, DC motor, delayed DC motor) and gain helpers."""
+"""Actuator models (implicit PD, delayed implicit PD, ideal PD, DC motor, delayed DC motor) and gain helpers."""
 
+from agile.actuators.delayed_implicit import DelayedImplicitActuatorCfg, DelayedTargetGroup
 from agile.actuators.explicit import DCMotorCfg, DelayedDCMotorCfg, ExplicitActuatorGroup, IdealPDActuatorCfg
 from agile.actuators.gains import action_scale, armature_gains
 from agile.actuators.implicit import ImplicitActuatorCfg, JointValue
@@ -10,5 +11,5 @@ def is_explicit(cfg) -> bool:
     return isinstance(cfg, IdealPDActuatorCfg)
 
 
-__all__ = ["DCMotorCfg", "DelayedDCMotorCfg", "ExplicitActuatorGroup", "IdealPDActuatorCfg", "ImplicitActuatorCfg",
+__all__ = ["DCMotorCfg", "DelayedImplicitActuatorCfg", "DelayedTargetGroup", "DelayedDCMotorCfg", "ExplicitActuatorGroup", "IdealPDActuatorCfg", "ImplicitActuatorCfg",
            "JointValue", "action_scale", "armature_gains", "is_explicit"]

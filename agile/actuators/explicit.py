@@ -118,6 +118,9 @@ class ExplicitActuatorGroup:
         else:
             self._state_now, self._state_next = self._state_next, self._state_now
 
+    def after_physics(self) -> None:
+        """Nothing to undo after the physics steps (the torques stay in joint_f for the rewards)."""
+
     def reset(self, env_mask: torch.Tensor) -> None:
         """Clear the delay buffers of the envs in env_mask and draw their new delays."""
         if self.delay_steps is None:

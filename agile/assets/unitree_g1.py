@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from agile.actuators import DelayedDCMotorCfg, ImplicitActuatorCfg, action_scale, armature_gains
+from agile.actuators import (DelayedDCMotorCfg, DelayedImplicitActuatorCfg, ImplicitActuatorCfg, action_scale,
+                             armature_gains)
 from agile.assets.files import asset_file
 from agile.sim import RobotCfg
 
@@ -76,15 +77,22 @@ ACTION_SCALE = {expr: action_scale(effort, ARMATURE_GAINS[expr][0])
 """AGILE `G1_29DOF_ACTION_SCALE`: 0.25·effort/kp per joint group."""
 
 
-def _armature_implicit_set() -> dict:
-    """AGILE `G1_29DOF` gains (armature-derived), all implicit PD. AGILE delays the leg and foot targets by
-    0-4 physics steps (delayed implicit PD), which is not modelled here."""
-    return {"all": ImplicitActuatorCfg(
-        joint_names_expr=[".*"],
-        stiffness={e: g[0] for e, g in ARMATURE_GAINS.items()}, damping={e: g[1] for e, g in ARMATURE_GAINS.items()},
-        armature={e: v[0] for e, v in ARMATURE_BY_GROUP.items()},
-        effort_limit={e: v[1] for e, v in ARMATURE_BY_GROUP.items()},
-        velocity_limit={e: v[2] for e, v in ARMATURE_BY_GROUP.items()})}
+def _armature_set() -> dict:
+    """AGILE `G1_29DOF` (FEB26): armature-derived gains; legs and feet delayed implicit PD (0-4 physics
+    steps), waist and arms implicit PD."""
+    def group(cls, exprs, **extra):
+        pick = {e: v for e, v in ARMATURE_BY_GROUP.items() if e in exprs}
+        return cls(joint_names_expr=list(pick), stiffness={e: ARMATURE_GAINS[e][0] for e in pick},
+                   damping={e: ARMATURE_GAINS[e][1] for e in pick}, armature={e: v[0] for e, v in pick.items()},
+                   effort_limit={e: v[1] for e, v in pick.items()}, velocity_limit={e: v[2] for e, v in pick.items()},
+                   **extra)
+
+    legs_and_feet = [".*_hip_(pitch|yaw)_joint", ".*_hip_roll_joint|.*_knee_joint", ".*_ankle_.*_joint"]
+    waist_and_arms = ["waist_(roll|pitch)_joint", "waist_yaw_joint",
+                      ".*_shoulder_.*_joint|.*_elbow_joint|.*_wrist_roll_joint", ".*_wrist_(pitch|yaw)_joint"]
+    return {"legs_feet": group(DelayedImplicitActuatorCfg, legs_and_feet, min_delay=0,
+                               max_delay=MAX_DELAY_PHYSICS_STEPS),
+            "waist_arms": group(ImplicitActuatorCfg, waist_and_arms)}
 
 
 def _implicit_set() -> dict:
@@ -95,7 +103,7 @@ def _implicit_set() -> dict:
             "arms": ImplicitActuatorCfg(joint_names_expr=[ARM_JOINTS], armature=ARMATURE, **ARMS)}
 
 
-ACTUATOR_SETS = {"delayed_dc_motor": _delayed_dc_motor_set, "armature_implicit": _armature_implicit_set,
+ACTUATOR_SETS = {"delayed_dc_motor": _delayed_dc_motor_set, "armature_delayed_implicit": _armature_set,
                  "implicit": _implicit_set}
 
 

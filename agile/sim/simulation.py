@@ -11,7 +11,7 @@ import newton
 import torch
 import warp as wp
 
-from agile.actuators import ExplicitActuatorGroup, is_explicit
+from agile.actuators import DelayedImplicitActuatorCfg, DelayedTargetGroup, ExplicitActuatorGroup, is_explicit
 from agile.sim.articulation import Articulation
 from agile.sim.names import resolve_names, resolve_values
 from agile.sim.sim_cfg import RobotCfg, SimCfg
@@ -155,8 +155,13 @@ class Simulation:
         """Explicit actuators' torque before clipping, per DoF (their clipped torque is control.joint_f)."""
         self.robot = Articulation(self.model, self.state, self.control, joint_names, body_names, step_dt_s,
                                   self.computed_effort)
-        self.actuator_groups: list[ExplicitActuatorGroup] = []
+        self.actuator_groups: list[ExplicitActuatorGroup | DelayedTargetGroup] = []
+        """Per-physics-step actuator work: explicit torque models and delayed implicit targets."""
         for name, act in robot_cfg.actuators.items():
+            if isinstance(act, DelayedImplicitActuatorCfg):
+                ids, _ = self.robot.find_joints(act.joint_names_expr)
+                self.actuator_groups.append(DelayedTargetGroup(name, act, ids, self.control, num_envs, self.device))
+                continue
             if not is_explicit(act):
                 continue
             ids, _ = self.robot.find_joints(act.joint_names_expr)
@@ -171,7 +176,8 @@ class Simulation:
                 raise ValueError(f"actuator group '{name}': a DC motor needs saturation_effort")
             self.actuator_groups.append(ExplicitActuatorGroup(
                 name, act, ids, values, self.state, self.control, self.computed_effort, num_envs, self.device))
-        self.robot.set_explicit_joints([i for g in self.actuator_groups for i in g.joint_ids.tolist()])
+        self.robot.set_explicit_joints([i for g in self.actuator_groups if isinstance(g, ExplicitActuatorGroup)
+                                        for i in g.joint_ids.tolist()])
         self.env_origins = env_origins_grid(num_envs, cfg.env_spacing_m, self.device)
         # world mask for solver.reset: one entry per world plus the global world (-1), which stays False
         self._world_mask = torch.zeros(num_envs + 1, dtype=torch.bool, device=self.device)
@@ -190,6 +196,8 @@ class Simulation:
             for group in self.actuator_groups:
                 group.step(self.physics_dt_s, substep, num_steps)
             self.solver.step(self.state, self.state, self.control, None, self.physics_dt_s)
+        for group in self.actuator_groups:
+            group.after_physics()
 
     def step(self, num_steps: int, graph: bool = True) -> None:
         """Advance every world by `num_steps` physics steps.
