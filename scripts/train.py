@@ -55,7 +55,10 @@ def main(argv=None) -> None:
         print(f"[agile] resuming from {resume_path}")
         runner.load(resume_path)
     runner.learn(num_learning_iterations=agent_cfg.max_iterations, init_at_random_ep_len=True)
-    print(f"[agile] logs and checkpoints in {log_dir}")
+    from export import export
+
+    paths = export(args.task, env, agent_cfg, runner, os.path.join(log_dir, "exported"))
+    print(f"[agile] logs and checkpoints in {log_dir}; exported policy in {os.path.dirname(paths['jit'])}")
     env.close()
 
 

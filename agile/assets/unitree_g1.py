@@ -116,5 +116,6 @@ def g1_robot_cfg(actuators: str = "delayed_dc_motor") -> RobotCfg:
         init_pos_m=(0.0, 0.0, INIT_HEIGHT_M),
         init_joint_pos=dict(INIT_JOINT_POS),
         enable_all_colliders=True,
+        mjcf_collider_classes=("collision", "foot_box", "foot_capsule"),
         actuators=ACTUATOR_SETS[actuators](),
     )

@@ -23,6 +23,10 @@ class RobotCfg:
     enable_all_colliders: bool = False
     """Turn on collision for collider shapes the file disables (Menagerie `g1_mjx.xml` uses contype=0
     with explicit contact pairs, which Newton does not import)."""
+    mjcf_collider_classes: tuple[str, ...] = ("collision",)
+    """MJCF default classes whose geoms are colliders. Newton matches class names exactly, not their
+    parents: list sub-classes too (Menagerie G1 puts its feet in `foot_box` and `foot_capsule`, children of
+    `collision`), or their geoms are dropped with the visuals."""
     contact_dim: int | None = 3
     """MuJoCo `condim` for every robot collider (3 = friction cone); None keeps the file's."""
     self_collisions: bool = False

@@ -44,7 +44,7 @@ def build_robot(cfg: RobotCfg, gravity_mps2: float) -> tuple[newton.ModelBuilder
     suffix = path.suffix.lower()
     if suffix == ".xml":
         builder.add_mjcf(str(path), floating=True, enable_self_collisions=cfg.self_collisions,
-                         parse_visuals=cfg.parse_visuals)
+                         parse_visuals=cfg.parse_visuals, collider_classes=tuple(cfg.mjcf_collider_classes))
     elif suffix == ".urdf":
         builder.add_urdf(str(path), floating=True, enable_self_collisions=cfg.self_collisions)
     elif suffix in USD_SUFFIXES:
@@ -209,14 +209,24 @@ class Simulation:
             with wp.ScopedDevice(self.wp_device):
                 self._physics_loop(num_steps)
             return
-        graph = self._graphs.get(num_steps)
-        if graph is None:
-            with wp.ScopedDevice(self.wp_device):
-                self._physics_loop(num_steps)  # eager warm-up allocates lazy buffers before capture
-                with wp.ScopedCapture(device=self.wp_device) as capture:
-                    self._physics_loop(num_steps)
-            graph = self._graphs[num_steps] = capture.graph
+        graph = self._graphs.get(num_steps) or self._capture(num_steps)
         wp.capture_launch(graph)
+
+    def _capture(self, num_steps: int):
+        """Record the loop once. The eager warm-up (lazy allocations) and the recording must not advance the
+        world, so the state and the solver's per-world buffers are put back afterwards."""
+        saved = [wp.clone(a) for a in (self.state.joint_q, self.state.joint_qd, self.state.body_q, self.state.body_qd)]
+        with wp.ScopedDevice(self.wp_device):
+            self._physics_loop(num_steps)
+            with wp.ScopedCapture(device=self.wp_device) as capture:
+                self._physics_loop(num_steps)
+        for dst, src in zip((self.state.joint_q, self.state.joint_qd, self.state.body_q, self.state.body_qd), saved):
+            dst.assign(src)
+        self.solver.reset(self.state, flags=0)  # clear warm start and applied forces, keep the joint state
+        for group in self.actuator_groups:
+            group.reset(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
+        self._graphs[num_steps] = capture.graph
+        return capture.graph
 
     def reset_worlds(self, mask: torch.Tensor) -> None:
         """Clear the solver's per-world internals (warm start, applied forces) where mask (N,) is True.

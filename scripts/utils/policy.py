@@ -17,14 +17,12 @@ def inference_cfg(env_cfg):
     return env_cfg
 
 
-def load_policy(checkpoint: str, env, agent_cfg):
-    """The deterministic actor of an RSL-RL checkpoint (or of a shipped actor-only file), as a callable on
-    the env's observation TensorDict."""
+def load_runner(checkpoint: str, env, agent_cfg):
+    """An RSL-RL runner (no logging) holding the models of a checkpoint or of a shipped actor-only file."""
+    import torch
     from rsl_rl.runners import OnPolicyRunner
 
-    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, flatten_groups, to_rsl_rl_dict
-
-    import torch
+    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 
     wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
     runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
@@ -32,5 +30,12 @@ def load_policy(checkpoint: str, env, agent_cfg):
     # a shipped policy holds the actor only; a training checkpoint also the critic and optimizer
     actor_only = "optimizer_state_dict" not in saved
     runner.load(checkpoint, load_cfg={"actor": True} if actor_only else None, map_location=str(env.device))
-    actor = runner.get_inference_policy(device=str(env.device))
+    return runner
+
+
+def load_policy(checkpoint: str, env, agent_cfg):
+    """The deterministic actor of a checkpoint, as a callable on the env's observation TensorDict."""
+    from agile.rl_env.rsl_rl import flatten_groups
+
+    actor = load_runner(checkpoint, env, agent_cfg).get_inference_policy(device=str(env.device))
     return lambda obs: actor(flatten_groups(obs))

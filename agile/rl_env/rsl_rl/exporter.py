@@ -1,0 +1,143 @@
+"""Policy export: TorchScript and ONNX (observation normalisation folded in) plus an IO descriptor.
+
+The IO descriptor is everything a deployment (or `scripts/sim2mujoco.py`) needs to rebuild the policy's
+inputs and apply its outputs without this framework: joints in policy order, defaults, action scale,
+offset and clip, actuator gains and limits, every observation term in order with its scale, clip and
+history length, and the rates.
+"""
+
+from __future__ import annotations
+
+import os
+
+import torch
+import yaml
+
+from agile.rl_env.managers import ObsGroup, ObsTerm, SceneEntityCfg
+from agile.rl_env.managers.manager_base import collect_terms
+from agile.utils.config import callable_name
+
+IO_DESCRIPTOR_VERSION = 1
+
+
+def _as_list(t) -> list:
+    return [round(float(x), 6) for x in t.flatten().tolist()]
+
+
+def _joint_names(env, ids) -> list[str]:
+    names = env.robot.joint_names
+    return list(names) if isinstance(ids, slice) else [names[i] for i in ids.tolist()]
+
+
+def _observation_terms(env, group_name: str) -> list[dict]:
+    group: ObsGroup = env.observation_manager.group_cfgs[group_name]
+    terms = []
+    for name, term in collect_terms(group, ObsTerm).items():
+        history = group.history_length if group.history_length is not None else term.history_length
+        entry = {"name": name, "func": callable_name(term.func).split(":")[-1],
+                 "dim": env.observation_manager.term_dims[group_name][name] // max(history, 1),
+                 "scale": term.scale, "clip": list(term.clip) if term.clip else None, "history_length": history}
+        for key, value in term.params.items():
+            if isinstance(value, SceneEntityCfg):
+                entry["joint_names"] = _joint_names(env, value.joint_ids)
+            else:
+                entry[key] = value
+        terms.append(entry)
+    return terms
+
+
+def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -> dict:
+    """The IO descriptor of a policy trained on `env` (a ManagerBasedRLEnv) with `agent_cfg`."""
+    robot = env.robot
+    actions = []
+    for name, term in env.action_manager.terms.items():
+        if name in training_only_actions:
+            continue
+        entry = {"name": name, "type": type(term).__name__, "joint_names": list(term.joint_names),
+                 "scale": _as_list(term.scale), "offset": _as_list(term.offset[0])}
+        if term.clip is not None:
+            entry["clip"] = [_as_list(term.clip[0]), _as_list(term.clip[1])]
+        actions.append(entry)
+    groups = agent_cfg.obs_groups["actor"]
+    actuators = {}
+    for group in env.sim.actuator_groups:
+        entry = {"type": type(group.cfg).__name__, "joint_names": _joint_names(env, group.joint_ids)}
+        for key in ("min_delay", "max_delay"):
+            if hasattr(group, key):
+                entry[key] = int(getattr(group, key))
+        if hasattr(group, "saturation_effort"):
+            entry["saturation_effort"] = _as_list(group.saturation_effort[0])
+        actuators[group.name] = entry
+    commands = {}
+    for name, term in env.command_manager.terms.items():
+        ranges = getattr(term.cfg, "ranges", None)
+        commands[name] = {"type": type(term).__name__,
+                          "ranges": {k: list(v) for k, v in vars(ranges).items()} if ranges is not None else None}
+    return {
+        "version": IO_DESCRIPTOR_VERSION,
+        "task": env.task_name,
+        "robot_model_file": os.path.basename(env.cfg.robot.model_file),
+        "enable_all_colliders": env.cfg.robot.enable_all_colliders,
+        "physics_dt_s": env.physics_dt_s,
+        "decimation": env.cfg.decimation,
+        "control_dt_s": env.step_dt,
+        "solver": {"iterations": env.cfg.sim.solver.iterations, "ls_iterations": env.cfg.sim.solver.ls_iterations,
+                   "cone": env.cfg.sim.solver.cone, "impratio": env.cfg.sim.solver.impratio},
+        "joint_names": list(robot.joint_names),
+        "default_joint_pos": _as_list(robot.default_joint_pos[0]),
+        "default_root_height_m": float(robot.default_root_pose[0, 2]),
+        "stiffness": _as_list(robot.joint_stiffness[0]),
+        "damping": _as_list(robot.joint_damping[0]),
+        "effort_limit": _as_list(robot.joint_effort_limit[0]),
+        "velocity_limit": _as_list(robot.joint_vel_limit[0]),
+        "armature": _as_list(env.sim.model.joint_armature.numpy().reshape(env.num_envs, -1)[0, 6:]),
+        "friction": _as_list(env.sim.model.joint_friction.numpy().reshape(env.num_envs, -1)[0, 6:]),
+        "actuators": actuators,
+        "actions": actions,
+        "observation_groups": groups,
+        "observations": {g: _observation_terms(env, g) for g in groups},
+        "commands": commands,
+    }
+
+
+def write_io_descriptor(path: str, descriptor: dict) -> None:
+    with open(path, "w") as f:
+        yaml.safe_dump(descriptor, f, sort_keys=False)
+
+
+def read_io_descriptor(path: str) -> dict:
+    with open(path) as f:
+        descriptor = yaml.safe_load(f)
+    if descriptor.get("version") != IO_DESCRIPTOR_VERSION:
+        raise ValueError(f"{path}: IO descriptor version {descriptor.get('version')}, expected {IO_DESCRIPTOR_VERSION}")
+    return descriptor
+
+
+def export_policy(runner, out_dir: str) -> tuple[str, str]:
+    """policy.pt (TorchScript) and policy.onnx (weights inside the file) of an RSL-RL runner's actor.
+
+    Both take the actor's observation groups concatenated, (batch, obs_dim), and return the mean action.
+    """
+    import onnx
+
+    os.makedirs(out_dir, exist_ok=True)
+    runner.export_policy_to_jit(out_dir, filename="policy.pt")
+    runner.export_policy_to_onnx(out_dir, filename="policy.onnx")
+    onnx_path = os.path.join(out_dir, "policy.onnx")
+    data_path = onnx_path + ".data"
+    model = onnx.load(onnx_path)  # loads external weights too
+    onnx.save(model, onnx_path, save_as_external_data=False)
+    if os.path.exists(data_path):
+        os.remove(data_path)
+    return os.path.join(out_dir, "policy.pt"), onnx_path
+
+
+def actor_obs_dim(env, agent_cfg) -> int:
+    return sum(env.observation_manager.group_dims[g] for g in agent_cfg.obs_groups["actor"])
+
+
+def example_input(env, agent_cfg) -> torch.Tensor:
+    from agile.rl_env.rsl_rl.vecenv_wrapper import flatten_groups
+
+    obs = flatten_groups(env.obs_buf)
+    return torch.cat([obs[g] for g in agent_cfg.obs_groups["actor"]], dim=-1)

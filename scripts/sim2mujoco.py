@@ -1,0 +1,259 @@
+"""Run an exported policy in plain MuJoCo (the C simulator, CPU), from its IO descriptor and the robot MJCF.
+
+    python scripts/export.py --task Velocity-G1-History-v0 --out exported/g1
+    python scripts/sim2mujoco.py --io exported/g1/io_descriptor.yaml --policy exported/g1/policy.pt \
+        --command 0.5 0 0 --episodes 3 --duration_s 10
+
+Nothing of the training framework is used: observations and actions are rebuilt from the descriptor,
+the joint torques come from the descriptor's gains and DC-motor limits (computed at the physics rate and
+applied as joint forces), and the robot collides with a ground plane. The actuator delays of training are
+not modelled. Reports fall rate and velocity tracking errors like scripts/eval.py; writes JSON with --out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections import deque
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # for agile.assets (robot files) from a checkout
+
+FALL_TILT_RAD = math.radians(60.0)
+FALL_HEIGHT_FRACTION = 0.5  # of the default root height
+
+
+def build_model(descriptor: dict, mjcf: str):
+    import mujoco
+
+    spec = mujoco.MjSpec.from_file(mjcf)
+    # like the training import: robot colliders on, no self-collision, friction cones (condim 3)
+    for geom in spec.geoms:
+        if geom.group == 2:  # Menagerie visual geoms
+            continue
+        if descriptor.get("enable_all_colliders") or geom.contype != 0:
+            geom.contype, geom.conaffinity, geom.condim = 1, 0, 3
+    spec.worldbody.add_geom(name="agile_floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
+                            contype=0, conaffinity=1, condim=3)
+    spec.option.timestep = descriptor["physics_dt_s"]
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    solver = descriptor.get("solver", {})
+    if "iterations" in solver:
+        spec.option.iterations = solver["iterations"]
+        spec.option.ls_iterations = solver["ls_iterations"]
+    model = spec.compile()
+    model.actuator_gainprm[:] = 0.0  # torques come from the descriptor's actuator model (qfrc_applied)
+    model.actuator_biasprm[:] = 0.0
+    return model
+
+
+class Robot:
+    """Index maps and actuator model of the descriptor's joints in a MuJoCo model."""
+
+    def __init__(self, descriptor: dict, model):
+        self.d = descriptor
+        names = descriptor["joint_names"]
+        self.qpos_adr = np.array([model.joint(n).qposadr[0] for n in names])
+        self.dof_adr = np.array([model.joint(n).dofadr[0] for n in names])
+        self.index = {n: i for i, n in enumerate(names)}
+        self.default_q = np.array(descriptor["default_joint_pos"])
+        self.kp = np.array(descriptor["stiffness"])
+        self.kd = np.array(descriptor["damping"])
+        self.effort_limit = np.array(descriptor["effort_limit"])
+        self.velocity_limit = np.array(descriptor["velocity_limit"])
+        self.saturation = np.full(len(names), np.inf)
+        for group in descriptor["actuators"].values():
+            if "saturation_effort" in group:
+                self.saturation[[self.index[n] for n in group["joint_names"]]] = group["saturation_effort"]
+        model.dof_armature[self.dof_adr] = descriptor["armature"]
+        model.dof_frictionloss[self.dof_adr] = descriptor["friction"]
+        self.target = self.default_q.copy()
+
+    def torque(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """PD on the targets, clipped by the DC-motor torque-speed line and the effort limit."""
+        tau = self.kp * (self.target - q) - self.kd * qd
+        finite = np.isfinite(self.saturation)
+        corner = np.where(finite, self.velocity_limit * (1 + self.effort_limit / np.where(finite, self.saturation, 1)),
+                          np.inf)
+        speed = np.clip(qd, -corner, corner)
+        sat = np.where(finite, self.saturation, 0.0)
+        tau_max = np.where(finite, np.minimum(sat * (1 - speed / self.velocity_limit), self.effort_limit),
+                           self.effort_limit)
+        tau_min = np.where(finite, np.maximum(sat * (-1 - speed / self.velocity_limit), -self.effort_limit),
+                           -self.effort_limit)
+        return np.clip(tau, tau_min, tau_max)
+
+
+def rotate_inverse(quat_wxyz: np.ndarray, v: np.ndarray) -> np.ndarray:
+    w, x, y, z = quat_wxyz
+    rot = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                    [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                    [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return rot.T @ v
+
+
+class Observer:
+    """The actor's input from the descriptor's observation terms: scale, clip, per-term history."""
+
+    def __init__(self, descriptor: dict, robot: Robot):
+        self.terms = [t for g in descriptor["observation_groups"] for t in descriptor["observations"][g]]
+        self.robot = robot
+        self.history = [deque(maxlen=max(t["history_length"], 1)) for t in self.terms]
+
+    def reset(self) -> None:
+        for h in self.history:
+            h.clear()
+
+    def _value(self, term: dict, data, command: np.ndarray, last_action: np.ndarray) -> np.ndarray:
+        r = self.robot
+        quat = data.qpos[3:7]
+        ids = [r.index[n] for n in term.get("joint_names", r.d["joint_names"])]
+        q = data.qpos[r.qpos_adr][ids]
+        qd = data.qvel[r.dof_adr][ids]
+        func = term["func"]
+        if func == "base_lin_vel":
+            return rotate_inverse(quat, data.qvel[0:3])
+        if func == "base_ang_vel":
+            return data.qvel[3:6].copy()  # MuJoCo's free-joint angular velocity is in the body frame
+        if func == "projected_gravity":
+            return rotate_inverse(quat, np.array([0.0, 0.0, -1.0]))
+        if func == "generated_commands":
+            return command
+        if func == "joint_pos_rel":
+            return q - r.default_q[ids]
+        if func == "joint_pos":
+            return q
+        if func == "joint_vel_rel":
+            return qd
+        if func == "last_action":
+            return last_action
+        raise ValueError(f"observation term '{term['name']}': function '{func}' is not supported by sim2mujoco")
+
+    def __call__(self, data, command: np.ndarray, last_action: np.ndarray) -> np.ndarray:
+        parts = []
+        for term, history in zip(self.terms, self.history):
+            value = np.asarray(self._value(term, data, command, last_action), dtype=np.float64)
+            if term["clip"] is not None:
+                value = np.clip(value, *term["clip"])
+            if term["scale"] is not None:
+                value = value * term["scale"]
+            if not history:
+                history.extend([value] * history.maxlen)  # a fresh history repeats the first value
+            else:
+                history.append(value)
+            parts.extend(history)
+        return np.concatenate(parts).astype(np.float32)
+
+
+def load_policy(path: str):
+    if path.endswith(".onnx"):
+        from onnx.reference import ReferenceEvaluator
+
+        evaluator = ReferenceEvaluator(path)
+        name = evaluator.input_names[0]
+        return lambda obs: evaluator.run(None, {name: obs[None]})[0][0]
+    import torch
+
+    module = torch.jit.load(path, map_location="cpu")
+    return lambda obs: module(torch.from_numpy(obs)[None]).detach().numpy()[0]
+
+
+def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s: float, command=None,
+        seed: int = 0, on_frame=None) -> dict:
+    import mujoco
+
+    rng = np.random.default_rng(seed)
+    model = build_model(descriptor, mjcf)
+    data = mujoco.MjData(model)
+    robot = Robot(descriptor, model)
+    observer = Observer(descriptor, robot)
+    policy = load_policy(policy_path)
+    action_terms = descriptor["actions"]
+    action_dim = sum(len(a["joint_names"]) for a in action_terms)
+    ranges = next(iter(descriptor["commands"].values()))["ranges"]
+    decimation = descriptor["decimation"]
+    steps = int(round(duration_s / descriptor["control_dt_s"]))
+    falls, lin_errors, ang_errors, lengths = 0, [], [], []
+    for _ in range(episodes):
+        mujoco.mj_resetData(model, data)
+        data.qpos[2] = descriptor["default_root_height_m"]
+        data.qpos[robot.qpos_adr] = robot.default_q
+        robot.target = robot.default_q.copy()
+        mujoco.mj_forward(model, data)
+        observer.reset()
+        cmd = np.array(command if command is not None else
+                       [rng.uniform(*ranges["lin_vel_x"]), rng.uniform(*ranges["lin_vel_y"]),
+                        rng.uniform(*ranges["ang_vel_z"])])
+        last_action = np.zeros(action_dim)
+        for step in range(steps):
+            action = np.asarray(policy(observer(data, cmd, last_action)), dtype=np.float64)
+            last_action = action
+            start = 0
+            for term in action_terms:
+                ids = [robot.index[n] for n in term["joint_names"]]
+                raw = action[start:start + len(ids)]
+                start += len(ids)
+                target = raw * np.array(term["scale"]) + np.array(term["offset"])
+                if "clip" in term:
+                    target = np.clip(target, term["clip"][0], term["clip"][1])
+                robot.target[ids] = target
+            for _ in range(decimation):
+                data.qfrc_applied[robot.dof_adr] = robot.torque(data.qpos[robot.qpos_adr], data.qvel[robot.dof_adr])
+                mujoco.mj_step(model, data)
+            if on_frame is not None:
+                on_frame(model, data)
+            v_b = rotate_inverse(data.qpos[3:7], data.qvel[0:3])
+            lin_errors.append(float(np.linalg.norm(cmd[:2] - v_b[:2])))
+            ang_errors.append(float(abs(cmd[2] - data.qvel[5])))
+            gravity_z = rotate_inverse(data.qpos[3:7], np.array([0.0, 0.0, -1.0]))[2]
+            tilt = math.acos(max(-1.0, min(1.0, -gravity_z)))
+            if tilt > FALL_TILT_RAD or data.qpos[2] < FALL_HEIGHT_FRACTION * descriptor["default_root_height_m"]:
+                falls += 1
+                break
+        lengths.append((step + 1) * descriptor["control_dt_s"])
+    return {"episodes": episodes, "falls": falls, "fall_rate": falls / episodes,
+            "lin_vel_error_mps": float(np.mean(lin_errors)), "ang_vel_error_radps": float(np.mean(ang_errors)),
+            "mean_episode_length_s": float(np.mean(lengths))}
+
+
+def default_mjcf(descriptor: dict) -> str:
+    from agile.assets import asset_file
+
+    robots = {"t1.xml": "booster_t1/t1.xml", "g1_mjx.xml": "unitree_g1/g1_mjx.xml", "g1.xml": "unitree_g1/g1.xml"}
+    name = descriptor["robot_model_file"]
+    if name not in robots:
+        raise SystemExit(f"error: pass --mjcf for robot file '{name}'")
+    return asset_file(robots[name])
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--io", required=True, help="io_descriptor.yaml written by scripts/export.py")
+    parser.add_argument("--policy", required=True, help="policy.pt (TorchScript) or policy.onnx")
+    parser.add_argument("--mjcf", default=None, help="robot MJCF (default: the asset package's file)")
+    parser.add_argument("--episodes", type=int, default=3)
+    parser.add_argument("--duration_s", type=float, default=10.0)
+    parser.add_argument("--command", type=float, nargs=3, default=None, metavar=("VX", "VY", "WZ"),
+                        help="fixed command (default: drawn per episode from the descriptor's ranges)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", default=None, help="write the metrics as JSON here")
+    args = parser.parse_args(argv)
+
+    import yaml
+
+    descriptor = yaml.safe_load(Path(args.io).read_text())
+    mjcf = args.mjcf or default_mjcf(descriptor)
+    metrics = run(descriptor, mjcf, args.policy, args.episodes, args.duration_s, args.command, args.seed)
+    metrics.update({"io_descriptor": args.io, "policy": args.policy, "mjcf": mjcf, "command": args.command,
+                    "duration_s": args.duration_s})
+    print(json.dumps(metrics, indent=2))
+    if args.out:
+        Path(args.out).write_text(json.dumps(metrics, indent=2))
+
+
+if __name__ == "__main__":
+    main()
