@@ -11,5 +11,6 @@ def is_explicit(cfg) -> bool:
     return isinstance(cfg, IdealPDActuatorCfg)
 
 
-__all__ = ["DCMotorCfg", "DelayedImplicitActuatorCfg", "DelayedTargetGroup", "DelayedDCMotorCfg", "ExplicitActuatorGroup", "IdealPDActuatorCfg", "ImplicitActuatorCfg",
-           "JointValue", "action_scale", "armature_gains", "is_explicit"]
+__all__ = ["DCMotorCfg", "DelayedDCMotorCfg", "DelayedImplicitActuatorCfg", "DelayedTargetGroup",
+           "ExplicitActuatorGroup", "IdealPDActuatorCfg", "ImplicitActuatorCfg", "JointValue", "action_scale",
+           "armature_gains", "is_explicit"]

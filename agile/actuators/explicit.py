@@ -57,6 +57,7 @@ class ExplicitActuatorGroup:
                  device: torch.device):
         self.name = name
         self.cfg = cfg
+        self.joint_id_list = list(joint_ids)
         self.joint_ids = torch.tensor(joint_ids, dtype=torch.long, device=device)
         n, j = num_envs, len(joint_ids)
         dofs_per_world = state.joint_qd.shape[0] // n

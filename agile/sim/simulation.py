@@ -177,7 +177,7 @@ class Simulation:
             self.actuator_groups.append(ExplicitActuatorGroup(
                 name, act, ids, values, self.state, self.control, self.computed_effort, num_envs, self.device))
         self.robot.set_explicit_joints([i for g in self.actuator_groups if isinstance(g, ExplicitActuatorGroup)
-                                        for i in g.joint_ids.tolist()])
+                                        for i in g.joint_id_list])
         self.env_origins = env_origins_grid(num_envs, cfg.env_spacing_m, self.device)
         # world mask for solver.reset: one entry per world plus the global world (-1), which stays False
         self._world_mask = torch.zeros(num_envs + 1, dtype=torch.bool, device=self.device)

@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import torch
 
-from agile.utils.config import ConfigError
+from agile.rl_env.managers.manager_base import build_class_terms
 
 
 class ActionTerm:
@@ -33,18 +31,7 @@ class ActionTerm:
 class ActionManager:
     def __init__(self, cfg, env):
         self.env = env
-        self.terms: dict[str, ActionTerm] = {}
-        for f in dataclasses.fields(cfg):
-            term_cfg = getattr(cfg, f.name)
-            if term_cfg is None:
-                continue
-            class_type = getattr(term_cfg, "class_type", None)
-            if class_type is None:
-                raise ConfigError(f"task '{env.task_name}', action term '{f.name}': cfg has no class_type")
-            try:
-                self.terms[f.name] = class_type(term_cfg, env)
-            except ValueError as err:
-                raise ConfigError(f"task '{env.task_name}', action term '{f.name}': {err}") from None
+        self.terms: dict[str, ActionTerm] = build_class_terms(cfg, env, "action")
         self.total_action_dim = sum(t.action_dim for t in self.terms.values())
         n = env.num_envs
         self.action = torch.zeros(n, self.total_action_dim, device=env.device)

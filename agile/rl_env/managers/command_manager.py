@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import torch
 
-from agile.utils.config import ConfigError
+from agile.rl_env.managers.manager_base import build_class_terms
 
 
 class CommandTerm:
@@ -49,17 +47,7 @@ class CommandTerm:
 class CommandManager:
     def __init__(self, cfg, env):
         self.env = env
-        self.terms: dict[str, CommandTerm] = {}
-        if cfg is None:
-            return
-        for f in dataclasses.fields(cfg):
-            term_cfg = getattr(cfg, f.name)
-            if term_cfg is None:
-                continue
-            class_type = getattr(term_cfg, "class_type", None)
-            if class_type is None:
-                raise ConfigError(f"task '{env.task_name}', command term '{f.name}': cfg has no class_type")
-            self.terms[f.name] = class_type(term_cfg, env)
+        self.terms: dict[str, CommandTerm] = build_class_terms(cfg, env, "command")
 
     @property
     def active_terms(self) -> list[str]:

@@ -69,3 +69,22 @@ def prepare_term(env, manager: str, name: str, term_cfg, skip_first: int = 1):
 def reset_term(func, env_mask) -> None:
     if isinstance(func, ManagerTermBase):
         func.reset(env_mask)
+
+
+def build_class_terms(cfg, env, manager: str) -> dict:
+    """{field name: cfg.class_type(cfg, env)} for the term configs of `cfg` (None disables a term)."""
+    terms = {}
+    if cfg is None:
+        return terms
+    for f in dataclasses.fields(cfg):
+        term_cfg = getattr(cfg, f.name)
+        if term_cfg is None:
+            continue
+        class_type = getattr(term_cfg, "class_type", None)
+        if class_type is None:
+            raise ConfigError(f"task '{env.task_name}', {manager} term '{f.name}': cfg has no class_type")
+        try:
+            terms[f.name] = class_type(term_cfg, env)
+        except (ValueError, KeyError) as err:
+            raise ConfigError(f"task '{env.task_name}', {manager} term '{f.name}': {err}") from None
+    return terms

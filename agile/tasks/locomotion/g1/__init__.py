@@ -8,6 +8,6 @@ gym.register(
     kwargs={
         "task_name": "Velocity-G1-History-v0",
         "env_cfg_entry_point": f"{__name__}.velocity_history_env_cfg:G1VelocityHistoryEnvCfg",
-        "rsl_rl_cfg_entry_point": f"{__name__}.agents.rsl_rl_ppo_cfg:G1VelocityHistoryPpoRunnerCfg",
+        "rsl_rl_cfg_entry_point": f"{__name__}.agents.rsl_rl_ppo_cfg:g1_velocity_history_ppo_runner_cfg",
     },
 )

@@ -8,6 +8,6 @@ gym.register(
     kwargs={
         "task_name": "Velocity-T1-v0",
         "env_cfg_entry_point": f"{__name__}.velocity_env_cfg:T1VelocityEnvCfg",
-        "rsl_rl_cfg_entry_point": f"{__name__}.agents.rsl_rl_ppo_cfg:T1VelocityPpoRunnerCfg",
+        "rsl_rl_cfg_entry_point": f"{__name__}.agents.rsl_rl_ppo_cfg:t1_velocity_ppo_runner_cfg",
     },
 )

@@ -11,9 +11,11 @@ import math
 
 from agile.assets.booster_t1 import LEG_JOINTS, t1_robot_cfg
 from agile.rl_env import ManagerBasedRLEnvCfg, mdp
-from agile.rl_env.managers import CurrTerm, DoneTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg, Unoise
+from agile.rl_env.managers import RewTerm, SceneEntityCfg
 from agile.sim import SimCfg, SolverCfg
-from agile.tasks.locomotion.velocity_common import VelocityEventsCfg, velocity_command_cfg
+from agile.tasks.locomotion.velocity_common import (VelocityCriticObsCfg, VelocityEventsCfg,
+                                                   action_rate_curriculum_cfg, velocity_command_cfg,
+                                                   velocity_policy_obs_cfg, velocity_terminations_cfg)
 from agile.utils.config import configclass
 
 LEGS = SceneEntityCfg("robot", joint_names=LEG_JOINTS)
@@ -33,34 +35,9 @@ class ActionsCfg:
 
 
 @configclass
-class PolicyCfg(ObsGroup):
-    concatenate_terms = False
-    enable_corruption = True
-    history_length = 5
-    base_ang_vel = ObsTerm(func=mdp.base_ang_vel, scale=0.2, noise=Unoise(-0.2, 0.2))
-    projected_gravity = ObsTerm(func=mdp.projected_gravity, noise=Unoise(-0.05, 0.05))
-    velocity_commands = ObsTerm(func=mdp.generated_commands, params={"command_name": "base_velocity"})
-    controlled_joint_pos = ObsTerm(func=mdp.joint_pos_rel, params={"asset_cfg": LEGS}, noise=Unoise(-0.01, 0.01))
-    controlled_joint_vel = ObsTerm(func=mdp.joint_vel_rel, params={"asset_cfg": LEGS}, scale=0.05,
-                                   noise=Unoise(-1.5, 1.5))
-    actions = ObsTerm(func=mdp.last_action)
-
-
-@configclass
-class CriticCfg(ObsGroup):
-    velocity_commands = ObsTerm(func=mdp.generated_commands, params={"command_name": "base_velocity"})
-    base_lin_vel = ObsTerm(func=mdp.base_lin_vel)
-    base_ang_vel = ObsTerm(func=mdp.base_ang_vel)
-    projected_gravity = ObsTerm(func=mdp.projected_gravity)
-    joint_pos = ObsTerm(func=mdp.joint_pos_rel)
-    joint_vel = ObsTerm(func=mdp.joint_vel_rel, scale=0.1)
-    actions = ObsTerm(func=mdp.last_action)
-
-
-@configclass
 class ObservationsCfg:
-    policy = PolicyCfg()
-    critic = CriticCfg()
+    policy = velocity_policy_obs_cfg(LEGS)
+    critic = VelocityCriticObsCfg()
 
 
 @configclass
@@ -98,24 +75,6 @@ class RewardsCfg:
 
 
 @configclass
-class TerminationsCfg:
-    time_out = DoneTerm(func=mdp.time_out, time_out=True)
-    bad_orientation = DoneTerm(func=mdp.bad_orientation, params={"limit_angle_rad": math.radians(30.0)})
-    illegal_base_height = DoneTerm(func=mdp.root_height_below_minimum,
-                                   params={"minimum_height_m": BASE_HEIGHT_TARGET_M - 0.3})
-
-
-@configclass
-class CurriculumCfg:
-    action_rate = CurrTerm(func=mdp.update_reward_weight_step,
-                           params={"reward_name": "action_rate", "start_step": 50_000, "num_steps": 100_000,
-                                   "terminal_weight": -2.0})
-    action_rate_rate = CurrTerm(func=mdp.update_reward_weight_step,
-                                params={"reward_name": "action_rate_rate", "start_step": 60_000,
-                                        "num_steps": 100_000, "terminal_weight": -1.0})
-
-
-@configclass
 class T1VelocityEnvCfg(ManagerBasedRLEnvCfg):
     num_envs = 4096
     decimation = 4  # 50 Hz policy
@@ -127,6 +86,7 @@ class T1VelocityEnvCfg(ManagerBasedRLEnvCfg):
     actions = ActionsCfg()
     observations = ObservationsCfg()
     rewards = RewardsCfg()
-    terminations = TerminationsCfg()
+    terminations = velocity_terminations_cfg(BASE_HEIGHT_TARGET_M)
     events = VelocityEventsCfg()
-    curriculum = CurriculumCfg()
+    curriculum = action_rate_curriculum_cfg(action_rate_final=-2.0,
+                                            action_rate_rate_final=-1.0)
