@@ -18,7 +18,7 @@ from utils import cli
 from utils.policy import inference_cfg, load_policy
 
 
-def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity") -> dict:
+def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity", recorder=None) -> dict:
     import torch
 
     n = env.num_envs
@@ -32,9 +32,11 @@ def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity"
     term_sums = {name: torch.zeros((), device=env.device) for name in env.reward_manager.weights}
     obs, _ = env.reset()
     with torch.inference_mode():
-        for _ in range(steps):
+        for step in range(steps):
             command = env.command_manager.get_command(command_name).clone()
             obs, reward, terminated, truncated, _ = env.step(policy(obs))
+            if recorder is not None:
+                recorder.record(env, step * env.step_dt)
             robot = env.robot
             alive = ~(terminated | truncated)  # the state of a reset env is its new episode's first state
             lin_err = torch.linalg.norm(command[:, :2] - robot.root_lin_vel_b[:, :2], dim=1)
@@ -71,6 +73,7 @@ def main(argv=None) -> None:
     parser.add_argument("--episode_length_s", type=float, default=20.0)
     parser.add_argument("--pushes", action="store_true", help="keep the task's interval events (pushes)")
     parser.add_argument("--out", default=None, help="write the metrics as JSON here")
+    parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
     args = parser.parse_args(argv)
 
     env_cfg, agent_cfg, device = cli.load_task(args)
@@ -94,7 +97,14 @@ def main(argv=None) -> None:
             if isinstance(term, EventTerm) and term.mode == "interval":
                 setattr(env_cfg.events, name, None)
     env = cli.make_env(args.task, env_cfg, device)
-    metrics = evaluate(env, load_policy(checkpoint, env, agent_cfg), args.num_episodes)
+    recorder = None
+    if args.usd:
+        from utils.recording import UsdRecorder
+
+        recorder = UsdRecorder(args.usd, env, num_frames=args.num_episodes * env.max_episode_length)
+    metrics = evaluate(env, load_policy(checkpoint, env, agent_cfg), args.num_episodes, recorder=recorder)
+    if recorder is not None:
+        recorder.close()
     metrics.update({"task": args.task, "checkpoint": checkpoint, "device": device, "command": args.command,
                     "episode_length_s": args.episode_length_s, "pushes": args.pushes})
     print(json.dumps(metrics, indent=2))

@@ -38,6 +38,7 @@ def main(argv=None) -> None:
     parser.add_argument("--viewer", choices=["none", "viser"], default="none", help="viser: browser viewer")
     parser.add_argument("--port", type=int, default=8080, help="viser port")
     parser.add_argument("--real_time", action="store_true", help="slow down to the control rate")
+    parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
     args = parser.parse_args(argv)
 
     env_cfg, agent_cfg, device = cli.load_task(args)
@@ -61,6 +62,11 @@ def main(argv=None) -> None:
         viewer.set_model(env.sim.model)
         print(f"[agile] viewer on http://localhost:{args.port}")
 
+    recorder = None
+    if args.usd:
+        from utils.recording import UsdRecorder
+
+        recorder = UsdRecorder(args.usd, env, num_frames=args.num_steps)
     obs, _ = env.reset()
     episodes = falls = 0
     reward_sum = torch.zeros((), device=env.device)
@@ -77,6 +83,8 @@ def main(argv=None) -> None:
             reward_sum += reward.mean()
             episodes += int((terminated | truncated).sum())
             falls += int(terminated.sum())
+            if recorder is not None:
+                recorder.record(env, step * env.step_dt)
             if viewer is not None:
                 if not viewer.is_running():
                     break
@@ -90,6 +98,9 @@ def main(argv=None) -> None:
           f"mean reward per step {float(reward_sum) / (step + 1):.4f}; episodes ended {episodes}, by failure {falls}")
     if viewer is not None:
         viewer.close()
+    if recorder is not None:
+        recorder.close()
+        print(f"[agile] USD stage written to {recorder.path}")
     env.close()
 
 

@@ -69,8 +69,9 @@ def test_play_and_eval_run_a_checkpoint(trained_run, tmp_path):
     assert code == 0 and "5 steps" in out, out
     metrics_file = tmp_path / "eval.json"
     code, out = run("scripts/eval.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--device", "cpu",
-                    "--checkpoint", checkpoint, "--episode_length_s", "0.5", "--out", str(metrics_file))
-    assert code == 0, out
+                    "--checkpoint", checkpoint, "--episode_length_s", "0.5", "--out", str(metrics_file),
+                    "--usd", str(tmp_path / "eval.usda"))
+    assert code == 0 and (tmp_path / "eval.usda").is_file(), out
     metrics = json.loads(metrics_file.read_text())
     assert metrics["episodes"] >= 2 and 0.0 <= metrics["fall_rate"] <= 1.0
     assert metrics["lin_vel_error_mps"] >= 0.0 and "track_lin_vel_xy_exp" in metrics["reward_per_step"]
@@ -103,3 +104,17 @@ def test_export_and_sim2mujoco_scripts(trained_run, tmp_path):
     assert code == 0, text
     metrics = json.loads(metrics_file.read_text())
     assert metrics["episodes"] == 1 and metrics["mean_episode_length_s"] <= 1.0 + 1e-9
+
+
+def test_play_records_a_usd_stage_with_one_sample_per_step(tmp_path):
+    from pxr import Usd
+
+    stage_path = tmp_path / "rollout.usda"
+    code, out = run("scripts/play.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--num_steps", "7",
+                    "--device", "cpu", "--usd", str(stage_path))
+    assert code == 0 and stage_path.is_file(), out
+    stage = Usd.Stage.Open(str(stage_path))
+    samples = {a.GetNumTimeSamples() for p in stage.Traverse() for a in p.GetAttributes()
+               if a.GetName() == "xformOp:orient"}
+    assert samples == {7}
+    assert stage.GetTimeCodesPerSecond() == 50.0
