@@ -18,7 +18,7 @@ from utils import cli
 from utils.policy import inference_cfg, load_policy
 
 
-def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity", recorder=None) -> dict:
+def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity", recorders=()) -> dict:
     import torch
 
     n = env.num_envs
@@ -35,7 +35,7 @@ def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity"
         for step in range(steps):
             command = env.command_manager.get_command(command_name).clone()
             obs, reward, terminated, truncated, _ = env.step(policy(obs))
-            if recorder is not None:
+            for recorder in recorders:
                 recorder.record(env, step * env.step_dt)
             robot = env.robot
             alive = ~(terminated | truncated)  # the state of a reset env is its new episode's first state
@@ -74,6 +74,7 @@ def main(argv=None) -> None:
     parser.add_argument("--pushes", action="store_true", help="keep the task's interval events (pushes)")
     parser.add_argument("--out", default=None, help="write the metrics as JSON here")
     parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
+    parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
     args = parser.parse_args(argv)
 
     env_cfg, agent_cfg, device = cli.load_task(args)
@@ -97,13 +98,15 @@ def main(argv=None) -> None:
             if isinstance(term, EventTerm) and term.mode == "interval":
                 setattr(env_cfg.events, name, None)
     env = cli.make_env(args.task, env_cfg, device)
-    recorder = None
-    if args.usd:
-        from utils.recording import UsdRecorder
+    from utils.recording import UsdRecorder, VideoRecorder
 
-        recorder = UsdRecorder(args.usd, env, num_frames=args.num_episodes * env.max_episode_length)
-    metrics = evaluate(env, load_policy(checkpoint, env, agent_cfg), args.num_episodes, recorder=recorder)
-    if recorder is not None:
+    recorders = []
+    if args.usd:
+        recorders.append(UsdRecorder(args.usd, env, num_frames=args.num_episodes * env.max_episode_length))
+    if args.video:
+        recorders.append(VideoRecorder(args.video, env))
+    metrics = evaluate(env, load_policy(checkpoint, env, agent_cfg), args.num_episodes, recorders=recorders)
+    for recorder in recorders:
         recorder.close()
     metrics.update({"task": args.task, "checkpoint": checkpoint, "device": device, "command": args.command,
                     "episode_length_s": args.episode_length_s, "pushes": args.pushes})

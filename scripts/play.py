@@ -39,6 +39,7 @@ def main(argv=None) -> None:
     parser.add_argument("--port", type=int, default=8080, help="viser port")
     parser.add_argument("--real_time", action="store_true", help="slow down to the control rate")
     parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
+    parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
     args = parser.parse_args(argv)
 
     env_cfg, agent_cfg, device = cli.load_task(args)
@@ -67,6 +68,11 @@ def main(argv=None) -> None:
         from utils.recording import UsdRecorder
 
         recorder = UsdRecorder(args.usd, env, num_frames=args.num_steps)
+    video = None
+    if args.video:
+        from utils.recording import VideoRecorder
+
+        video = VideoRecorder(args.video, env)
     obs, _ = env.reset()
     episodes = falls = 0
     reward_sum = torch.zeros((), device=env.device)
@@ -85,6 +91,8 @@ def main(argv=None) -> None:
             falls += int(terminated.sum())
             if recorder is not None:
                 recorder.record(env, step * env.step_dt)
+            if video is not None:
+                video.record(env)
             if viewer is not None:
                 if not viewer.is_running():
                     break
@@ -101,6 +109,9 @@ def main(argv=None) -> None:
     if recorder is not None:
         recorder.close()
         print(f"[agile] USD stage written to {recorder.path}")
+    if video is not None:
+        video.close()
+        print(f"[agile] video ({video.frames} frames) written to {video.path}")
     env.close()
 
 

@@ -118,3 +118,15 @@ def test_play_records_a_usd_stage_with_one_sample_per_step(tmp_path):
                if a.GetName() == "xformOp:orient"}
     assert samples == {7}
     assert stage.GetTimeCodesPerSecond() == 50.0
+
+
+def test_play_renders_a_video_headless(tmp_path):
+    import imageio.v2 as imageio
+
+    video_path = tmp_path / "rollout.mp4"
+    code, out = run("scripts/play.py", "--task", "Velocity-G1-History-v0", "--num_envs", "1", "--num_steps", "6",
+                    "--device", "cpu", "--video", str(video_path))
+    assert code == 0 and video_path.is_file(), out
+    frames = list(imageio.get_reader(str(video_path)))
+    assert len(frames) == 6 and frames[0].shape == (480, 640, 3)
+    assert frames[-1].std() > 5.0  # not blank: a robot on a ground plane

@@ -22,3 +22,57 @@ class UsdRecorder:
 
     def close(self) -> None:
         self.viewer.close()
+
+
+def _look_at_quat_xyzw(eye, target):
+    """Rotation of a camera at `eye` looking at `target` (camera x right, y up, looking along -z), z up."""
+    import numpy as np
+
+    forward = np.asarray(target, dtype=float) - np.asarray(eye, dtype=float)
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    m = np.stack([right, up, -forward], axis=1)
+    w = np.sqrt(max(1e-12, 1.0 + m[0, 0] + m[1, 1] + m[2, 2])) / 2.0
+    return ((m[2, 1] - m[1, 2]) / (4 * w), (m[0, 2] - m[2, 0]) / (4 * w), (m[1, 0] - m[0, 1]) / (4 * w), w)
+
+
+class VideoRecorder:
+    """An mp4 of one env, rendered headless by Newton's Warp ray-tracing camera, which follows the robot."""
+
+    CAMERA_OFFSET_M = (1.8, -1.8, 0.7)  # from the robot's root, world frame
+
+    def __init__(self, path: str, env, width: int = 640, height: int = 480, env_index: int = 0):
+        import imageio.v2 as imageio
+        import warp as wp
+        from newton.sensors import SensorCamera
+
+        self.camera = SensorCamera(env.sim.model)
+        self.camera.create_default_light()
+        self.rays = SensorCamera.compute_camera_rays_pinhole(width, height, camera_fov=0.9,
+                                                             device=env.sim.model.device)
+        self.transforms = wp.array([wp.transform_identity()], dtype=wp.transformf, device=env.sim.model.device)
+        self.image = self.camera.allocate_image_color(1, width, height)
+        self.size = (height, width)
+        self.env_index = env_index
+        self.writer = imageio.get_writer(path, fps=round(1.0 / env.step_dt), macro_block_size=1)
+        self.path = path
+        self.frames = 0
+
+    def record(self, env, time_s: float | None = None) -> None:
+        import numpy as np
+        import warp as wp
+
+        root = env.robot.root_pos_w[self.env_index].detach().cpu().numpy()
+        eye = root + np.asarray(self.CAMERA_OFFSET_M)
+        target = root - np.array([0.0, 0.0, 0.2])
+        pose = wp.transformf(wp.vec3f(*eye), wp.quatf(*_look_at_quat_xyzw(eye, target)))
+        self.transforms.assign(wp.array([pose], dtype=wp.transformf, device=self.transforms.device))
+        self.camera.update(env.sim.state, self.transforms, self.rays, color_image=self.image)
+        frame = self.image.numpy()[self.env_index].view(np.uint8).reshape(*self.size, 4)[..., :3]
+        self.writer.append_data(frame)
+        self.frames += 1
+
+    def close(self) -> None:
+        self.writer.close()
