@@ -16,6 +16,40 @@ import sys
 from utils import cli
 
 
+def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iterations: int) -> None:
+    """Train in chunks of --video_interval iterations, recording a clip of the current policy after each."""
+    import copy
+
+    import torch
+    from utils.policy import inference_cfg
+    from utils.recording import VideoRecorder
+
+    from agile.rl_env.rsl_rl import flatten_groups
+
+    video_cfg = inference_cfg(copy.deepcopy(env_cfg))
+    video_cfg.num_envs = 1
+    video_env = cli.make_env(args.task, video_cfg, device)
+    os.makedirs(os.path.join(log_dir, "videos"), exist_ok=True)
+    done = 0
+    while done < iterations:
+        chunk = min(args.video_interval, iterations - done)
+        runner.learn(num_learning_iterations=chunk, init_at_random_ep_len=done == 0)
+        # RSL-RL leaves the counter on the last iteration done; the next chunk starts one later
+        runner.current_learning_iteration += 1
+        done += chunk
+        policy = runner.get_inference_policy(device=str(video_env.device))
+        path = os.path.join(log_dir, "videos", f"iteration_{done}.mp4")
+        recorder = VideoRecorder(path, video_env)
+        obs, _ = video_env.reset()
+        with torch.inference_mode():
+            for _ in range(args.video_length):
+                obs, *_ = video_env.step(policy(flatten_groups(obs)))
+                recorder.record(video_env)
+        recorder.close()
+        print(f"[agile] clip: {path}")
+    video_env.close()
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     cli.add_common_args(parser)
@@ -25,6 +59,10 @@ def main(argv=None) -> None:
     parser.add_argument("--logger", choices=["tensorboard", "wandb", "neptune"], default=None)
     parser.add_argument("--run_name", default=None, help="suffix of the log folder")
     parser.add_argument("--log_root", default=os.path.join("logs", "rsl_rl"))
+    parser.add_argument("--video", action="store_true", help="record a clip of the policy every --video_interval "
+                        "iterations into <log dir>/videos (a separate 1-env world, rendered headless)")
+    parser.add_argument("--video_interval", type=int, default=500, help="iterations between clips")
+    parser.add_argument("--video_length", type=int, default=200, help="env steps per clip")
     args = parser.parse_args(argv)
 
     env_cfg, agent_cfg, device = cli.load_task(args)
@@ -54,7 +92,10 @@ def main(argv=None) -> None:
     if resume_path:
         print(f"[agile] resuming from {resume_path}")
         runner.load(resume_path)
-    runner.learn(num_learning_iterations=agent_cfg.max_iterations, init_at_random_ep_len=True)
+    if args.video:
+        learn_with_clips(runner, args, env_cfg, device, log_dir, agent_cfg.max_iterations)
+    else:
+        runner.learn(num_learning_iterations=agent_cfg.max_iterations, init_at_random_ep_len=True)
     from export import export
 
     paths = export(args.task, env, agent_cfg, runner, os.path.join(log_dir, "exported"))

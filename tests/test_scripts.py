@@ -130,3 +130,12 @@ def test_play_renders_a_video_headless(tmp_path):
     frames = [frame for frame in imageio.get_reader(str(video_path))]  # list() trips on its infinite len()
     assert len(frames) == 6 and frames[0].shape == (480, 640, 3)
     assert frames[-1].std() > 5.0  # not blank: a robot on a ground plane
+
+
+def test_train_records_clips_every_n_iterations(tmp_path):
+    code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "2",
+                    "--device", "cpu", "--log_root", str(tmp_path), "--video", "--video_interval", "1",
+                    "--video_length", "3", "agent.num_steps_per_env=4")
+    assert code == 0, out
+    run_dir = next((tmp_path / "velocity_t1").iterdir())
+    assert sorted(p.name for p in (run_dir / "videos").iterdir()) == ["iteration_1.mp4", "iteration_2.mp4"]
