@@ -112,7 +112,6 @@ class ManagerBasedRLEnv(gym.Env):
         self.step_dt = cfg.decimation * cfg.sim.physics_dt_s
         self.max_episode_length_s = cfg.episode_length_s
         self.max_episode_length = math.ceil(cfg.episode_length_s / self.step_dt)
-        self.common_step_counter = None  # a device tensor, made below
 
         self.sim = Simulation(cfg.sim, cfg.robot, cfg.num_envs, device, self.step_dt)
         self.device = self.sim.device
