@@ -33,4 +33,5 @@ def test_task_builds_steps_resets_and_trains(task, tmp_path):
     runner = OnPolicyRunner(RslRlVecEnvWrapper(env), to_rsl_rl_dict(agent_cfg), log_dir=str(tmp_path), device="cpu")
     runner.learn(num_learning_iterations=1)
     assert (tmp_path / "model_0.pt").is_file()
+    assert runner.alg.symmetry is not None and runner.alg.symmetry.use_data_augmentation  # AGILE's lr-mirror
     env.close()

@@ -4,7 +4,8 @@ from agile.rl_env.rsl_rl import DistributionCfg, MlpModelCfg, PpoAlgorithmCfg, P
 
 
 def velocity_ppo_runner_cfg(experiment_name: str, max_iterations: int) -> PpoRunnerCfg:
-    """Actor [256, 256, 128], critic [512, 256, 128], ELU; adaptive lr 1e-3 (KL 0.01); entropy 0.005."""
+    """Actor [256, 256, 128], critic [512, 256, 128], ELU; adaptive lr 1e-3 (KL 0.01); entropy 0.005;
+    left-right mirrored samples added to every mini-batch (AGILE's `lr_mirror_T1/G1` augmentation)."""
     return PpoRunnerCfg(
         experiment_name=experiment_name,
         num_steps_per_env=24,
@@ -16,5 +17,8 @@ def velocity_ppo_runner_cfg(experiment_name: str, max_iterations: int) -> PpoRun
                           distribution_cfg=DistributionCfg(init_std=1.0)),
         critic=MlpModelCfg(hidden_dims=[512, 256, 128], activation="elu", obs_normalization=True),
         algorithm=PpoAlgorithmCfg(learning_rate=1.0e-3, schedule="adaptive", desired_kl=0.01, gamma=0.99, lam=0.95,
-                                  entropy_coef=0.005, num_learning_epochs=5, num_mini_batches=4),
+                                  entropy_coef=0.005, num_learning_epochs=5, num_mini_batches=4,
+                                  symmetry_cfg={"use_data_augmentation": True, "use_mirror_loss": False,
+                                                "mirror_loss_coeff": 0.0,
+                                                "data_augmentation_func": "agile.rl_env.mdp.symmetry:lr_mirror"}),
     )

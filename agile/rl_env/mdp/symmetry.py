@@ -1,0 +1,137 @@
+"""Left-right mirroring of observations and actions, for RSL-RL's symmetry augmentation.
+
+Everything is derived from the robot and the observation terms, not from term names:
+- joints pair up by swapping "left"/"right" (any case) in their names; a joint turning about its x or z axis
+  (roll, yaw) changes sign, one turning about y (pitch) does not;
+- an observation term is mirrored by what its function returns: polar vectors (linear velocity, gravity)
+  flip y, pseudo-vectors (angular velocity) flip x and z, velocity commands flip vy and wz, joint terms and
+  the last action use the joint map. A term without a rule is an error naming it.
+Each group becomes one index permutation and one sign vector, built once: mirror(x) = x[:, perm] * sign.
+
+Use in an agent config: `algorithm.symmetry_cfg = {"use_data_augmentation": True, "use_mirror_loss": False,
+"mirror_loss_coeff": 0.0, "data_augmentation_func": "agile.rl_env.mdp.symmetry:lr_mirror"}`.
+"""
+
+from __future__ import annotations
+
+import re
+import weakref
+
+import numpy as np
+import torch
+from tensordict import TensorDict
+
+from agile.rl_env.managers import ObsTerm, SceneEntityCfg
+from agile.rl_env.managers.manager_base import collect_terms
+from agile.rl_env.mdp import observations as obs_terms
+
+POLAR_VECTOR = [1.0, -1.0, 1.0]
+PSEUDO_VECTOR = [-1.0, 1.0, -1.0]
+VELOCITY_COMMAND = [1.0, -1.0, -1.0]  # vx, vy, wz
+
+_SIDE = re.compile(r"(left|right)", re.IGNORECASE)
+
+
+def _swap_side(name: str) -> str:
+    def swap(m):
+        word = m.group(0)
+        other = "right" if word.lower() == "left" else "left"
+        return other.capitalize() if word[0].isupper() else other
+    return _SIDE.sub(swap, name)
+
+
+def joint_mirror(joint_names: list[str], joint_axes: np.ndarray) -> tuple[list[int], list[float]]:
+    """(partner index, sign) per joint. joint_axes: (J, 3) joint axes in their local frames."""
+    index = {n: i for i, n in enumerate(joint_names)}
+    perm, sign = [], []
+    for name, axis in zip(joint_names, joint_axes):
+        partner = _swap_side(name)
+        if partner not in index:
+            raise ValueError(f"joint '{name}' has no mirror joint '{partner}'. Joints: {joint_names}")
+        perm.append(index[partner])
+        sign.append(1.0 if int(np.argmax(np.abs(axis))) == 1 else -1.0)
+    return perm, sign
+
+
+def _sub_mirror(ids: list[int], perm: list[int], sign: list[float], what: str) -> tuple[list[int], list[float]]:
+    """The joint mirror restricted to the joints `ids` (positions within that selection)."""
+    position = {j: k for k, j in enumerate(ids)}
+    missing = [j for j in ids if perm[j] not in position]
+    if missing:
+        raise ValueError(f"{what}: the mirror joints of joints {missing} are not selected too")
+    return [position[perm[j]] for j in ids], [sign[j] for j in ids]
+
+
+class GroupMirror:
+    """Permutation and signs mirroring the observation groups and the action of an env."""
+
+    def __init__(self, env):
+        robot = env.robot
+        axes = env.sim.model.joint_axis.numpy().reshape(env.num_envs, -1, 3)[0, 6:]
+        self.joint_perm, self.joint_sign = joint_mirror(robot.joint_names, axes)
+        action_perm, action_sign = [], []
+        for name, term in env.action_manager.terms.items():
+            p, s = _sub_mirror(term.joint_ids.tolist(), self.joint_perm, self.joint_sign, f"action term '{name}'")
+            offset = len(action_perm)
+            action_perm += [offset + k for k in p]
+            action_sign += s
+        self.action = (torch.tensor(action_perm, device=env.device), torch.tensor(action_sign, device=env.device))
+        self.groups = {}
+        for group_name, group in env.observation_manager.group_cfgs.items():
+            perm, sign = [], []
+            for term_name, term in collect_terms(group, ObsTerm).items():
+                history = group.history_length if group.history_length is not None else term.history_length
+                dim = env.observation_manager.term_dims[group_name][term_name] // max(history, 1)
+                p, s = self._term_mirror(env, group_name, term_name, term, dim, action_perm, action_sign)
+                for _ in range(max(history, 1)):
+                    offset = len(perm)
+                    perm += [offset + k for k in p]
+                    sign += s
+            self.groups[group_name] = (torch.tensor(perm, device=env.device), torch.tensor(sign, device=env.device))
+
+    def _term_mirror(self, env, group_name, term_name, term, dim, action_perm, action_sign):
+        func = term.func
+        where = f"observation '{group_name}' term '{term_name}'"
+        if func in (obs_terms.base_lin_vel, obs_terms.projected_gravity):
+            return [0, 1, 2], POLAR_VECTOR
+        if func is obs_terms.base_ang_vel:
+            return [0, 1, 2], PSEUDO_VECTOR
+        if func is obs_terms.generated_commands and dim == 3:
+            return [0, 1, 2], VELOCITY_COMMAND
+        if func in (obs_terms.joint_pos, obs_terms.joint_pos_rel, obs_terms.joint_vel_rel):
+            asset: SceneEntityCfg = term.params["asset_cfg"]
+            ids = list(range(env.robot.num_joints)) if isinstance(asset.joint_ids, slice) else asset.joint_ids.tolist()
+            return _sub_mirror(ids, self.joint_perm, self.joint_sign, where)
+        if func is obs_terms.last_action and term.params.get("action_name") is None:
+            return action_perm, action_sign
+        raise ValueError(f"{where}: no mirror rule for '{func.__name__}'")
+
+    @staticmethod
+    def apply(x: torch.Tensor, perm_sign: tuple[torch.Tensor, torch.Tensor]) -> torch.Tensor:
+        perm, sign = perm_sign
+        return x[..., perm] * sign
+
+
+_MIRRORS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def group_mirror(env) -> GroupMirror:
+    """The (cached) mirror of a ManagerBasedRLEnv or of an RSL-RL wrapper around one."""
+    env = getattr(env, "env", env)
+    mirror = _MIRRORS.get(env)
+    if mirror is None:
+        mirror = _MIRRORS[env] = GroupMirror(env)
+    return mirror
+
+
+def lr_mirror(env, obs: TensorDict | None = None, actions: torch.Tensor | None = None):
+    """RSL-RL augmentation: ([obs; mirrored obs], [actions; mirrored actions]); None stays None."""
+    mirror = group_mirror(env)
+    obs_aug = None
+    if obs is not None:
+        obs_aug = TensorDict({k: torch.cat((obs[k], mirror.apply(obs[k], mirror.groups[k])), dim=0) for k in obs.keys()},
+                             batch_size=[obs.batch_size[0] * 2])
+    actions_aug = None
+    if actions is not None:
+        actions_aug = torch.cat((actions, mirror.apply(actions, mirror.action)), dim=0)
+    return obs_aug, actions_aug
