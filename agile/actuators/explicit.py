@@ -12,6 +12,7 @@ import torch
 import warp as wp
 from newton.actuators import Actuator, ClampingDCMotor, ClampingMaxEffort, Delay, DrivePD
 
+from agile.actuators.group import ActuatorGroup
 from agile.actuators.implicit import ImplicitActuatorCfg, JointValue
 from agile.utils.config import configclass
 
@@ -45,7 +46,7 @@ def _zero_at(indices: wp.array[wp.uint32], a: wp.array[float], b: wp.array[float
     b[indices[i]] = 0.0
 
 
-class ExplicitActuatorGroup:
+class ExplicitActuatorGroup(ActuatorGroup):
     """One actuator group of a replicated robot: a Newton `Actuator` over its DoFs in every world.
 
     Parameter tensors are (num_envs, group joints), world-major like the Newton arrays they back, so a
@@ -55,20 +56,10 @@ class ExplicitActuatorGroup:
     def __init__(self, name: str, cfg: IdealPDActuatorCfg, joint_ids: list[int], values: dict[str, torch.Tensor],
                  state: newton.State, control: newton.Control, computed_effort: wp.array, num_envs: int,
                  device: torch.device):
-        self.name = name
-        self.cfg = cfg
-        self.joint_id_list = list(joint_ids)
-        self.joint_ids = torch.tensor(joint_ids, dtype=torch.long, device=device)
+        super().__init__(name, cfg, joint_ids, num_envs, state.joint_q.shape[0] // num_envs,
+                         state.joint_qd.shape[0] // num_envs, device, int(getattr(cfg, "min_delay", 0)),
+                         int(getattr(cfg, "max_delay", 0)))
         n, j = num_envs, len(joint_ids)
-        dofs_per_world = state.joint_qd.shape[0] // n
-        coords_per_world = state.joint_q.shape[0] // n
-        world = torch.arange(n, device=device).unsqueeze(1)
-        local = self.joint_ids.unsqueeze(0)
-        dof_idx = (world * dofs_per_world + 6 + local).flatten().to(torch.int32)
-        coord_idx = (world * coords_per_world + 7 + local).flatten().to(torch.int32)
-        self._dof_idx = wp.from_torch(dof_idx, dtype=wp.uint32)
-        self._coord_idx = wp.from_torch(coord_idx, dtype=wp.uint32)
-        self._keep = (dof_idx, coord_idx)
 
         def param(key: str) -> torch.Tensor:
             return values[key].to(device=device, dtype=torch.float32).expand(n, j).contiguous()
@@ -85,17 +76,10 @@ class ExplicitActuatorGroup:
                                         max_motor_effort=wp.from_torch(self.effort_limit.view(-1)))]
         else:
             clamping = [ClampingMaxEffort(max_effort=wp.from_torch(self.effort_limit.view(-1)))]
-        self.min_delay = int(getattr(cfg, "min_delay", 0))
-        self.max_delay = int(getattr(cfg, "max_delay", 0))
-        if not 0 <= self.min_delay <= self.max_delay:
-            raise ValueError(f"actuator group '{name}': need 0 <= min_delay <= max_delay, "
-                             f"got {self.min_delay}, {self.max_delay}")
         delay = None
-        self.delay_steps = None
-        if self.max_delay > 0:
-            self.delay_steps = torch.full((n, j), self.max_delay, dtype=torch.int32, device=device)
+        if self.delay_steps is not None:
             delay = Delay(delay_steps=wp.from_torch(self.delay_steps.view(-1)), max_delay=self.max_delay)
-        self.actuator = Actuator(indices=self._dof_idx, pos_indices=self._coord_idx, drive=drive, delay=delay,
+        self.actuator = Actuator(indices=self._dofs, pos_indices=self._coords, drive=drive, delay=delay,
                                  clamping=clamping, control_computed_output_attr="computed_effort")
         self._sim_state = {"joint_q": state.joint_q, "joint_qd": state.joint_qd}
         self._sim_control = {"joint_target_q": control.joint_target_q, "joint_target_qd": control.joint_target_qd,
@@ -103,31 +87,10 @@ class ExplicitActuatorGroup:
                              "computed_effort": computed_effort}
         self._state_now = self.actuator.state()
         self._state_next = self.actuator.state()
-        self._reset_mask = torch.zeros(n, j, dtype=torch.bool, device=device)
-        self._reset_mask_wp = wp.from_torch(self._reset_mask.view(-1), dtype=wp.bool)
 
     def step(self, dt: float, substep: int, num_substeps: int) -> None:
         """One physics step: torques of this group into control.joint_f (Warp launches only, capturable)."""
-        wp.launch(_zero_at, dim=self._dof_idx.shape[0],
-                  inputs=[self._dof_idx, self._sim_control["joint_f"], self._sim_control["computed_effort"]])
+        wp.launch(_zero_at, dim=self._dofs.shape[0],
+                  inputs=[self._dofs, self._sim_control["joint_f"], self._sim_control["computed_effort"]])
         self.actuator.step(self._sim_state, self._sim_control, self._state_now, self._state_next, dt=dt)
-        if self._state_now is None:
-            return
-        if substep == num_substeps - 1 and num_substeps % 2 == 1:
-            # a captured loop bakes the Python swap: copy instead, so `_state_now` is current at every replay
-            self._state_now.assign(self._state_next)
-        else:
-            self._state_now, self._state_next = self._state_next, self._state_now
-
-    def after_physics(self) -> None:
-        """Nothing to undo after the physics steps (the torques stay in joint_f for the rewards)."""
-
-    def reset(self, env_mask: torch.Tensor) -> None:
-        """Clear the delay buffers of the envs in env_mask and draw their new delays."""
-        if self.delay_steps is None:
-            return
-        lag = torch.randint(self.min_delay, self.max_delay + 1, (env_mask.shape[0], 1), dtype=torch.int32,
-                            device=env_mask.device)
-        self.delay_steps.copy_(torch.where(env_mask.unsqueeze(-1), lag, self.delay_steps))
-        self._reset_mask.copy_(env_mask.unsqueeze(-1).expand_as(self._reset_mask))
-        self._state_now.reset(self._reset_mask_wp)
+        self._advance_state(substep, num_substeps)

@@ -79,7 +79,11 @@ def default_device() -> str:
 
 
 class ManagerBasedRLEnv(gym.Env):
-    """Vectorized env: every tensor has the env count as its first dimension; resets happen inside step()."""
+    """Vectorized env: every tensor has the env count as its first dimension; resets happen inside step().
+
+    `env_cfg_entry_point` and `rsl_rl_cfg_entry_point` come from the gymnasium registration; the second is
+    read by the scripts through `agile.tasks.load_cfgs`, not by the env.
+    """
 
     metadata = {"render_modes": [None]}
     is_vector_env = True
@@ -100,7 +104,6 @@ class ManagerBasedRLEnv(gym.Env):
             apply_overrides({"env": cfg}, [o if o.startswith("env.") else f"env.{o}" for o in overrides])
         self.cfg = cfg
         self.task_name = task_name or type(cfg).__name__
-        self.agent_cfg_entry_point = rsl_rl_cfg_entry_point
         self.render_mode = render_mode
         device = device or default_device()
         if device.startswith("cuda") and not wp.is_cuda_available():

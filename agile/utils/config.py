@@ -15,7 +15,7 @@ import dataclasses
 import importlib
 import inspect
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Any
 
 
@@ -50,12 +50,6 @@ def _is_mutable(value) -> bool:
 
 def _copier(value):
     return lambda: copy.deepcopy(value)
-
-
-def iter_fields(cfg) -> Iterator[tuple[str, Any]]:
-    """(name, value) of the dataclass fields of `cfg`, in declaration order."""
-    for f in dataclasses.fields(cfg):
-        yield f.name, getattr(cfg, f.name)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -60,7 +60,3 @@ def yaw_from_quat(q_xyzw: torch.Tensor) -> torch.Tensor:
 
 def wrap_to_pi(angle: torch.Tensor) -> torch.Tensor:
     return torch.remainder(angle + math.pi, 2.0 * math.pi) - math.pi
-
-
-def sample_uniform(low, high, shape, device) -> torch.Tensor:
-    return torch.rand(shape, device=device) * (high - low) + low

@@ -132,10 +132,6 @@ def export_policy(runner, out_dir: str) -> tuple[str, str]:
     return os.path.join(out_dir, "policy.pt"), onnx_path
 
 
-def actor_obs_dim(env, agent_cfg) -> int:
-    return sum(env.observation_manager.group_dims[g] for g in agent_cfg.obs_groups["actor"])
-
-
 def example_input(env, agent_cfg) -> torch.Tensor:
     from agile.rl_env.rsl_rl.vecenv_wrapper import flatten_groups
 
