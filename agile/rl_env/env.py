@@ -122,6 +122,9 @@ class ManagerBasedRLEnv(gym.Env):
         """Env steps since construction (all envs together), as a device tensor."""
         self.robot = self.sim.robot
         self.scene = {"robot": self.robot}
+        if self.sim.contact_sensor is not None:
+            self.scene["contact_forces"] = self.sim.contact_sensor  # Isaac Lab's name for it
+        self.scene.update(self.sim.height_scanners)
         self.env_origins = self.sim.env_origins
         self.episode_length_buf = torch.zeros(self.num_envs, dtype=torch.long, device=self.device)
         self.reset_buf = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
@@ -220,7 +223,7 @@ class ManagerBasedRLEnv(gym.Env):
         self.episode_length_buf += 1
         self.common_step_counter += 1
         self.robot.update()
-        self.robot.update_joint_acc()
+        self.robot.update_accelerations()
         self.robot.compute_pd_torque()
 
         robot = self.robot

@@ -51,6 +51,9 @@ class Articulation:
         self.joint_vel = dofs[:, 6:]
         self.body_pose_w = wp.to_torch(state.body_q).view(n, self.num_bodies, 7)
         self.body_vel_w = wp.to_torch(state.body_qd).view(n, self.num_bodies, 6)  # COM lin vel, ang vel
+        self.body_wrench_w = wp.to_torch(state.body_f).view(n, self.num_bodies, 6)
+        """External wrench on each body's COM (force [N], torque [N·m]; world frame). The solver applies it at
+        every physics step until it is overwritten, so a disturbance persists between env steps."""
         # -- views of the control
         self.joint_pos_target = wp.to_torch(control.joint_target_q).view(n, -1)[:, 7:]
         self.joint_vel_target = wp.to_torch(control.joint_target_qd).view(n, -1)[:, 6:]
@@ -63,12 +66,18 @@ class Articulation:
         self.joint_stiffness = wp.to_torch(model.joint_target_ke).view(n, -1)[:, 6:]
         self.joint_damping = wp.to_torch(model.joint_target_kd).view(n, -1)[:, 6:]
         self.joint_effort_limit = wp.to_torch(model.joint_effort_limit).view(n, -1)[:, 6:]
+        self.joint_friction = wp.to_torch(model.joint_friction).view(n, -1)[:, 6:]  # dry friction [N·m]
+        self.joint_armature = wp.to_torch(model.joint_armature).view(n, -1)[:, 6:]  # [kg·m²]
         self.joint_pos_limits = torch.stack(
             (wp.to_torch(model.joint_limit_lower).view(n, -1)[:, 6:],
              wp.to_torch(model.joint_limit_upper).view(n, -1)[:, 6:]), dim=-1)
         self.joint_vel_limit = wp.to_torch(model.joint_velocity_limit).view(n, -1)[:, 6:]
-        self.root_com_offset_b = wp.to_torch(model.body_com).view(n, self.num_bodies, 3)[:, 0]
+        self.body_com_b = wp.to_torch(model.body_com).view(n, self.num_bodies, 3)
+        self.root_com_offset_b = self.body_com_b[:, 0]
         self.body_mass = wp.to_torch(model.body_mass).view(n, self.num_bodies)
+        self.body_inertia = wp.to_torch(model.body_inertia).view(n, self.num_bodies, 3, 3)  # about the COM
+        self._body_inv_mass = wp.to_torch(model.body_inv_mass).view(n, self.num_bodies)
+        self._body_inv_inertia = wp.to_torch(model.body_inv_inertia).view(n, self.num_bodies, 3, 3)
         # -- defaults (copies: what a reset returns to)
         self.default_root_pose = self.root_pose_w.clone()
         self.default_joint_pos = self.joint_pos.clone()
@@ -83,6 +92,10 @@ class Articulation:
         self.heading_w = torch.zeros(n, device=self.device)
         self.joint_acc = torch.zeros_like(self.joint_vel)
         self._prev_joint_vel = torch.zeros_like(self.joint_vel)
+        self.body_lin_acc_w = torch.zeros(n, self.num_bodies, 3, device=self.device)
+        """COM linear acceleration of each body [m/s²], world frame, by finite difference over the env step."""
+        self._prev_body_lin_vel_w = self.body_vel_w[..., :3].clone()
+        self._body_acc_valid = torch.zeros(n, 1, 1, dtype=torch.bool, device=self.device)
         self.computed_torque = torch.zeros_like(self.joint_vel)
         """Joint torque the PD law asks for [N·m], before the effort limit."""
         self.applied_torque = torch.zeros_like(self.joint_vel)
@@ -114,10 +127,31 @@ class Articulation:
         self.projected_gravity_b[:] = quat_rotate_inverse(quat, self.gravity_dir_w)
         self.heading_w[:] = yaw_from_quat(quat)
 
-    def update_joint_acc(self) -> None:
-        """Joint acceleration by finite difference over the env step; once per env step, after physics."""
+    def update_accelerations(self) -> None:
+        """Joint and body accelerations by finite difference over the env step; once per env step, after physics."""
         self.joint_acc[:] = (self.joint_vel - self._prev_joint_vel) / self._step_dt_s
         self._prev_joint_vel[:] = self.joint_vel
+        body_lin_vel_w = self.body_vel_w[..., :3]
+        # a root-state write (reset, push) makes the previous velocity meaningless: report 0 for that step
+        body_lin_acc_w = (body_lin_vel_w - self._prev_body_lin_vel_w) / self._step_dt_s
+        self.body_lin_acc_w.copy_(torch.where(self._body_acc_valid, body_lin_acc_w, 0.0))
+        self._prev_body_lin_vel_w[:] = body_lin_vel_w
+        self._body_acc_valid.fill_(True)
+
+    def set_body_mass(self, mass_kg: torch.Tensor, mask: torch.Tensor, scale_inertia: bool = True) -> None:
+        """Set body masses (N, B) where mask (N,) is True, keeping inverse mass and inertia consistent.
+
+        With scale_inertia the inertia scales with the mass (same shape, different density), as Isaac Lab
+        does. The caller notifies the solver (`ModelFlags.BODY_INERTIAL_PROPERTIES`).
+        """
+        m = mask.view(-1, 1)
+        new_mass = torch.where(m, mass_kg, self.body_mass)
+        if scale_inertia:
+            ratio = (new_mass / self.body_mass.clamp(min=1e-9)).unsqueeze(-1).unsqueeze(-1)
+            self.body_inertia.mul_(ratio)
+            self._body_inv_inertia.copy_(torch.where(ratio > 0, self._body_inv_inertia / ratio.clamp(min=1e-9), 0.0))
+        self.body_mass.copy_(new_mass)
+        self._body_inv_mass.copy_(torch.where(new_mass > 0, 1.0 / new_mass.clamp(min=1e-9), 0.0))
 
     def set_explicit_joints(self, joint_ids: list[int]) -> None:
         self.explicit_joints.zero_()
@@ -139,6 +173,7 @@ class Articulation:
         m = mask.unsqueeze(-1)
         self.root_pose_w.copy_(torch.where(m, pose_w, self.root_pose_w))
         self.root_com_vel_w.copy_(torch.where(m, com_vel_w, self.root_com_vel_w))
+        self._body_acc_valid.masked_fill_(mask.view(-1, 1, 1), False)
 
     def write_joint_state(self, pos: torch.Tensor, vel: torch.Tensor, mask: torch.Tensor) -> None:
         m = mask.unsqueeze(-1)

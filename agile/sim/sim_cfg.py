@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import field
 
 from agile.actuators import ImplicitActuatorCfg
+from agile.sim.terrain import TerrainGeneratorCfg
 from agile.utils.config import configclass
 
 
@@ -49,11 +50,47 @@ class SolverCfg:
 
 
 @configclass
+class ContactSensorCfg:
+    """Contact forces on robot bodies (Isaac Lab ContactSensorCfg); terms find it as env.scene["contact_forces"]."""
+
+    body_names: str | list[str] = ".*"
+    """Regexes of the robot bodies to sense; terms select among these by name."""
+    history_length: int = 3
+    """Physics steps of net force kept in `net_forces_w_history` (AGILE: 3)."""
+    track_air_time: bool = True
+    force_threshold_n: float = 1.0
+    """A body is in contact above this net force [N] (for air and contact times)."""
+
+
+@configclass
+class HeightScannerCfg:
+    """A grid of rays cast straight down from a robot body onto the terrain (Isaac Lab RayCaster with a
+    GridPattern and `ray_alignment="yaw"`); terms find it as env.sim.height_scanners[name]."""
+
+    body_name: str = ""
+    """Regex of the one robot body the grid follows."""
+    offset_xy_m: tuple[float, float] = (0.0, 0.0)
+    """Grid centre relative to the body, in the body's yaw frame. There is no z offset: rays start above
+    all terrain, and the sensor height is the body's."""
+    size_m: tuple[float, float] = (0.0, 0.0)
+    """Grid extent along x and y in the yaw frame; (0, 0) is a single ray."""
+    resolution_m: float = 0.1
+
+
+@configclass
 class SimCfg:
     physics_dt_s: float = 0.005
     solver: SolverCfg = SolverCfg()
+    contact_sensor: ContactSensorCfg | None = None
+    """None: no contact forces are read (saves the per-step export)."""
     use_graph: bool = True
     """Capture the decimation loop once as a Warp graph (CUDA graph on GPU, APIC graph on CPU)."""
     ground_friction: float = 1.0
+    """Friction of the ground plane, or of the terrain."""
+    terrain: TerrainGeneratorCfg | None = None
+    """None: a flat ground plane at z=0. Else a generated height field; envs spawn at its cells."""
+    max_init_terrain_level: int | None = None
+    """Envs start on a row drawn from [0, this]; None allows every row."""
+    height_scanners: dict[str, HeightScannerCfg] = field(default_factory=dict)
     env_spacing_m: float = 2.5
     gravity_mps2: float = -9.81

@@ -13,8 +13,11 @@ import warp as wp
 
 from agile.actuators import DelayedImplicitActuatorCfg, DelayedTargetGroup, ExplicitActuatorGroup, is_explicit
 from agile.sim.articulation import Articulation
+from agile.sim.contact_sensor import ContactSensor
+from agile.sim.height_scanner import HeightScanner, TerrainHeights
 from agile.sim.names import resolve_names, resolve_values
 from agile.sim.sim_cfg import RobotCfg, SimCfg
+from agile.sim.terrain import TerrainData, load_or_generate_terrain
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 
@@ -118,6 +121,13 @@ def apply_actuator_to_builder(builder: newton.ModelBuilder, act, joint_names: li
             getattr(builder, attr)[6 + i] = v
 
 
+def terrain_heightfield(terrain: TerrainData) -> newton.Heightfield:
+    """The terrain as a Newton height field centred on the world origin (rows of `data` run along y)."""
+    nx, ny = terrain.heights_m.shape
+    h = terrain.horizontal_scale_m
+    return newton.Heightfield(data=terrain.heights_m.T, nrow=ny, ncol=nx, hx=(nx - 1) * h / 2, hy=(ny - 1) * h / 2)
+
+
 class Simulation:
     """Builds the replicated world and steps it; the decimation loop is one captured graph."""
 
@@ -139,12 +149,26 @@ class Simulation:
         newton.solvers.SolverMuJoCo.register_custom_attributes(scene)
         scene.replicate(robot_builder, copy_count=num_envs, spacing=(0.0, 0.0, 0.0))
         ground_cfg = newton.ModelBuilder.ShapeConfig(mu=cfg.ground_friction)
-        scene.add_ground_plane(cfg=ground_cfg)
+        self.terrain: TerrainData | None = None
+        if cfg.terrain is None:
+            scene.add_ground_plane(cfg=ground_cfg)
+        else:
+            self.terrain = load_or_generate_terrain(cfg.terrain)
+            scene.add_shape_heightfield(heightfield=terrain_heightfield(self.terrain), cfg=ground_cfg, label="terrain")
         self.model = scene.finalize(device=self.wp_device)
         s = cfg.solver
         self.solver = newton.solvers.SolverMuJoCo(
             self.model, iterations=s.iterations, ls_iterations=s.ls_iterations, njmax=s.njmax, nconmax=s.nconmax,
-            cone=s.cone, impratio=s.impratio, integrator=s.integrator, solver=s.solver)
+            cone=s.cone, impratio=s.impratio, integrator=s.integrator, solver=s.solver,
+            use_mujoco_contacts=self.terrain is None)
+        # on a terrain Newton detects the contacts: mujoco_warp's height-field collision throws boxes (feet)
+        # off the field (seen on CPU, mujoco_warp 3.17), Newton's pipeline rests them at the right height
+        self.collision_pipeline: newton.CollisionPipeline | None = None
+        self.contacts: newton.Contacts | None = None
+        if self.terrain is not None:
+            self.collision_pipeline = newton.CollisionPipeline(
+                self.model, rigid_contact_max=self.solver.get_max_contact_count())
+            self.contacts = self.collision_pipeline.contacts()
         # a capped iteration count is a deliberate speed/accuracy trade-off in RL: do not print a warning
         # from every world at every step when it is reached (capacity overflows still print)
         quiet = mujoco_warp.OverflowType.ITERATIONS | mujoco_warp.OverflowType.LS_ITERATIONS
@@ -178,7 +202,30 @@ class Simulation:
                 name, act, ids, values, self.state, self.control, self.computed_effort, num_envs, self.device))
         self.robot.set_explicit_joints([i for g in self.actuator_groups if isinstance(g, ExplicitActuatorGroup)
                                         for i in g.joint_id_list])
+        self.contact_sensor: ContactSensor | None = None
+        if cfg.contact_sensor is not None:
+            # the solver writes each step's contact forces against the contacts it steps with: the pipeline's on a
+            # terrain, else a buffer that MuJoCo's own collision detection is exported into
+            contacts = self.contacts if self.contacts is not None else newton.Contacts(
+                self.solver.get_max_contact_count(), 0, device=self.wp_device)
+            try:
+                self.contact_sensor = ContactSensor(cfg.contact_sensor, self.model, self.solver, contacts,
+                                                    body_names, cfg.physics_dt_s)
+            except ValueError as err:
+                raise ValueError(f"contact sensor: {err}") from None
         self.env_origins = env_origins_grid(num_envs, cfg.env_spacing_m, self.device)
+        """(N, 3) spawn point of each env; changed in place when an env changes terrain level."""
+        if self.terrain is not None:
+            self._init_terrain_levels(cfg.max_init_terrain_level)
+        terrain_heights = None if self.terrain is None else TerrainHeights(
+            torch.from_numpy(self.terrain.heights_m).to(self.device), self.terrain.origin_xy_m,
+            self.terrain.horizontal_scale_m)
+        self.height_scanners: dict[str, HeightScanner] = {}
+        for name, scanner_cfg in cfg.height_scanners.items():
+            try:
+                self.height_scanners[name] = HeightScanner(scanner_cfg, self.robot, terrain_heights)
+            except ValueError as err:
+                raise ValueError(f"height scanner '{name}': {err}") from None
         # world mask for solver.reset: one entry per world plus the global world (-1), which stays False
         self._world_mask = torch.zeros(num_envs + 1, dtype=torch.bool, device=self.device)
         self._world_mask_wp = wp.from_torch(self._world_mask, dtype=wp.bool)
@@ -192,10 +239,18 @@ class Simulation:
         return self.wp_device.is_cpu or wp.is_mempool_enabled(self.wp_device)
 
     def _physics_loop(self, num_steps: int) -> None:
+        sensor = self.contact_sensor
         for substep in range(num_steps):
             for group in self.actuator_groups:
                 group.step(self.physics_dt_s, substep, num_steps)
-            self.solver.step(self.state, self.state, self.control, None, self.physics_dt_s)
+            if self.collision_pipeline is not None:
+                self.collision_pipeline.collide(self.state, self.contacts)
+            if sensor is None:
+                self.solver.step(self.state, self.state, self.control, self.contacts, self.physics_dt_s)
+            else:
+                self.solver.step(self.state, self.state, self.control, sensor.contacts, self.physics_dt_s,
+                                 observables=sensor.solver_observables)
+                sensor.update(self.state)
         for group in self.actuator_groups:
             group.after_physics()
 
@@ -223,18 +278,56 @@ class Simulation:
         for dst, src in zip((self.state.joint_q, self.state.joint_qd, self.state.body_q, self.state.body_qd), saved):
             dst.assign(src)
         self.solver.reset(self.state, flags=0)  # clear warm start and applied forces, keep the joint state
+        all_envs = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
         for group in self.actuator_groups:
-            group.reset(torch.ones(self.num_envs, dtype=torch.bool, device=self.device))
+            group.reset(all_envs)
+        if self.contact_sensor is not None:
+            self.contact_sensor.reset(all_envs)
         self._graphs[num_steps] = capture.graph
         return capture.graph
 
     def reset_worlds(self, mask: torch.Tensor) -> None:
-        """Clear the solver's per-world internals (warm start, applied forces) where mask (N,) is True.
+        """Clear the solver's per-world internals (warm start, applied forces) and the contact sensor's
+        histories and clocks where mask (N,) is True.
 
         Joint state is then written by the caller through the Articulation and made consistent by `forward`.
         """
         self._world_mask[: self.num_envs].copy_(mask)
         self.solver.reset(self.state, world_mask=self._world_mask_wp)
+        # the solver re-applies state.body_f at every step: a disturbance must not outlive its episode
+        self.robot.body_wrench_w.masked_fill_(mask.view(-1, 1, 1), 0.0)
+        if self.contact_sensor is not None:
+            self.contact_sensor.reset(mask)
+
+    # -- terrain levels ------------------------------------------------------------------------------
+
+    def _init_terrain_levels(self, max_init_level: int | None) -> None:
+        """Env i gets column i % num_cols and a row drawn in [0, max_init_level] (Isaac Lab TerrainImporter)."""
+        origins = self.terrain.cell_origins_m
+        num_rows, num_cols = origins.shape[:2]
+        max_init = num_rows - 1 if max_init_level is None else min(max_init_level, num_rows - 1)
+        self.terrain_origins_m = torch.from_numpy(origins).to(self.device)
+        """(num_rows, num_cols, 3) spawn point of each cell."""
+        self.terrain_types = torch.arange(self.num_envs, device=self.device) % num_cols
+        """(N,) column of each env."""
+        self.terrain_levels = torch.randint(0, max_init + 1, (self.num_envs,), device=self.device)
+        """(N,) row (difficulty level) of each env."""
+        self.max_terrain_level = num_rows
+        self.env_origins.copy_(self.terrain_origins_m[self.terrain_levels, self.terrain_types])
+
+    def update_terrain_levels(self, move_up: torch.Tensor, move_down: torch.Tensor) -> None:
+        """Move envs one row up or down where the (N,) masks say so and update `env_origins` in place.
+
+        Envs that pass the last row restart on a random row (Isaac Lab), so solved levels keep being
+        revisited; no env goes below row 0. Masked tensor math only: safe inside the captured step.
+        """
+        if self.terrain is None:
+            raise RuntimeError("terrain levels need SimCfg.terrain (this world has a flat ground plane)")
+        levels = self.terrain_levels + move_up.long() - (move_down & ~move_up).long()
+        random_level = torch.randint_like(levels, self.max_terrain_level)
+        levels = torch.where(levels >= self.max_terrain_level, random_level, levels.clamp(min=0))
+        self.terrain_levels.copy_(levels)
+        self.env_origins.copy_(self.terrain_origins_m[self.terrain_levels, self.terrain_types])
 
     @contextlib.contextmanager
     def actuators_disabled(self):

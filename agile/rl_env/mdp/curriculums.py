@@ -33,3 +33,64 @@ class update_reward_weight_step(ManagerTermBase):  # noqa: N801 (AGILE's name)
             weight = self.start_weight + progress * (terminal_weight - self.start_weight)
         env.reward_manager.set_term_weight(reward_name, weight)
         return weight
+
+
+class terrain_levels_vel(ManagerTermBase):  # noqa: N801 (Isaac Lab's name)
+    """AGILE `terrain_levels_vel_curriculum`: an env moves one terrain row up after `n_successes` episodes
+    that ended more than `move_up_distance_m` from where they started, and one row down after `n_failures`
+    episodes that ended less than `move_down_distance_m` away; each move clears both counts. On top, an
+    ending episode moves up with probability `p_random_move_up` (unless it moves down) and down with
+    `p_random_move_down` (unless it moves up). Returns the mean terrain level.
+
+    The distance is AGILE's `traveled_distance`: the straight-line displacement summed over the pieces
+    between command changes, so turning back on a new command still counts as walking.
+    """
+
+    def __init__(self, cfg, env):
+        super().__init__(cfg, env)
+        if env.sim.terrain is None:
+            raise ValueError("terrain_levels_vel needs a terrain (SimCfg.terrain)")
+        n = env.num_envs
+        self.num_successes = torch.zeros(n, dtype=torch.long, device=env.device)
+        self.num_failures = torch.zeros(n, dtype=torch.long, device=env.device)
+        self.traveled_distance_m = torch.zeros(n, device=env.device)
+        """Displacement of the finished command pieces of the current episode."""
+        self.piece_start_xy_w = torch.zeros(n, 2, device=env.device)
+        self.last_command = None
+        self.restart = torch.ones(n, dtype=torch.bool, device=env.device)
+        """Envs whose episode started since the last call: their start point is the current position."""
+
+    def __call__(self, env, env_mask, command_name: str = "base_velocity", move_up_distance_m: float = 4.0,
+                 move_down_distance_m: float = 2.0, n_successes: int = 4, n_failures: int = 10,
+                 p_random_move_up: float = 0.0, p_random_move_down: float = 0.0) -> torch.Tensor:
+        pos_xy = env.scene["robot"].root_pos_w[:, :2]
+        command = env.command_manager.get_command(command_name)
+        if self.last_command is None:  # first call only, before any capture
+            self.last_command = command.clone()
+        # an episode starts after the reset of the previous call, one env step late (20 ms of walking lost)
+        restart = self.restart.unsqueeze(1)
+        self.piece_start_xy_w.copy_(torch.where(restart, pos_xy, self.piece_start_xy_w))
+        self.traveled_distance_m.masked_fill_(self.restart, 0.0)
+        piece_m = torch.norm(pos_xy - self.piece_start_xy_w, dim=1)
+        changed = (command != self.last_command).any(dim=1) & ~self.restart
+        self.traveled_distance_m.add_(torch.where(changed, piece_m, 0.0))
+        self.piece_start_xy_w.copy_(torch.where(changed.unsqueeze(1), pos_xy, self.piece_start_xy_w))
+        self.last_command.copy_(command)
+        distance_m = self.traveled_distance_m + torch.norm(pos_xy - self.piece_start_xy_w, dim=1)
+
+        self.num_successes.add_((env_mask & (distance_m > move_up_distance_m)).long())
+        self.num_failures.add_((env_mask & (distance_m < move_down_distance_m)).long())
+        move_up = env_mask & (self.num_successes >= n_successes)
+        move_down = env_mask & (self.num_failures >= n_failures)
+        moved = move_up | move_down
+        self.num_successes.masked_fill_(moved, 0)
+        self.num_failures.masked_fill_(moved, 0)
+        if p_random_move_up > 0.0:
+            move_up = move_up | (env_mask & ~move_down
+                                 & (torch.rand(env.num_envs, device=env.device) < p_random_move_up))
+        if p_random_move_down > 0.0:
+            move_down = move_down | (env_mask & ~move_up
+                                     & (torch.rand(env.num_envs, device=env.device) < p_random_move_down))
+        env.sim.update_terrain_levels(move_up, move_down)
+        self.restart.copy_(env_mask)
+        return env.sim.terrain_levels.float().mean()

@@ -54,3 +54,18 @@ def last_action(env, action_name: str | None = None) -> torch.Tensor:
             return manager.action[:, start:start + term.action_dim]
         start += term.action_dim
     raise KeyError(f"no action term '{action_name}'. Terms: {manager.active_terms}")
+
+
+def contact_force_norm(env, sensor_cfg: SceneEntityCfg) -> torch.Tensor:
+    """|net contact force| of the selected sensor bodies at the last physics step [N], (N, B)."""
+    return torch.norm(env.scene[sensor_cfg.name].net_forces_w[:, sensor_cfg.body_ids], dim=-1)
+
+
+def height_scan(env, sensor_name: str, offset_m: float = 0.5,
+                clip_m: tuple[float, float] = (-1.0, 1.0)) -> torch.Tensor:
+    """(N, R) sensor height minus the terrain height under each ray, minus `offset_m` (Isaac Lab's
+    `height_scan`: about 0 for a base `offset_m` above flat ground), clipped to `clip_m` [m]."""
+    scanner = env.scene[sensor_name]
+    scanner.update()
+    scan = scanner.pos_w[:, 2:3] - scanner.hit_z_m - offset_m
+    return scan.clamp(clip_m[0], clip_m[1])

@@ -33,9 +33,15 @@ def track_ang_vel_z_exp(env, std: float, command_name: str, asset_cfg: SceneEnti
     return torch.exp(-error / std**2)
 
 
-def base_height_exp(env, target_height_m: float, std: float, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
-    """exp(-(h - h_target)² / std²) with h the root height above the flat ground."""
+def base_height_exp(env, target_height_m: float, std: float, asset_cfg: SceneEntityCfg = ROBOT,
+                    sensor_name: str | None = None) -> torch.Tensor:
+    """exp(-(h - h_target)² / std²) with h the root height above the ground: above z=0 without a sensor,
+    above the mean terrain height under the height scanner `sensor_name` with one."""
     height = env.scene[asset_cfg.name].root_pos_w[:, 2]
+    if sensor_name is not None:
+        scanner = env.scene[sensor_name]
+        scanner.update()
+        height = height - scanner.hit_z_m.mean(dim=1)
     return torch.exp(-torch.square(height - target_height_m) / std**2)
 
 
@@ -68,6 +74,13 @@ def lin_vel_z_l2(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
 
 def ang_vel_xy_l2(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
     return torch.sum(torch.square(env.scene[asset_cfg.name].root_ang_vel_b[:, :2]), dim=1)
+
+
+def body_acc_l2(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
+    """Sum over the selected bodies (all if none selected) of |COM linear acceleration|² [m²/s⁴], the
+    acceleration being the velocity change over the env step (gravity not included: 0 at rest)."""
+    acc = env.scene[asset_cfg.name].body_lin_acc_w[:, asset_cfg.body_ids]
+    return torch.sum(torch.square(acc), dim=(1, 2))
 
 
 # -- joint regularisation ---------------------------------------------------------------------------
@@ -166,3 +179,87 @@ def feet_distance_from_ref(env, ref_distance_m: float, asset_cfg: SceneEntityCfg
     heading = robot.heading_w
     lateral = -torch.sin(heading) * delta_w[:, 0] + torch.cos(heading) * delta_w[:, 1]
     return torch.abs(lateral.abs() - ref_distance_m)
+
+
+# -- contacts (the contact sensor: SceneEntityCfg("contact_forces", body_names=...)) ----------------
+# Forces are world-frame [N]; "recent" means any of the sensor's history of physics steps.
+
+def _recent_contact(env, sensor_cfg: SceneEntityCfg, force_threshold_n: float) -> torch.Tensor:
+    """(N, B) bool: the selected bodies' net force exceeded the threshold at one of the recent physics steps."""
+    history = env.scene[sensor_cfg.name].net_forces_w_history[:, :, sensor_cfg.body_ids]
+    return torch.norm(history, dim=-1).amax(dim=1) > force_threshold_n
+
+
+def _moving_command(env, command_name: str, min_command_speed_mps: float) -> torch.Tensor:
+    return torch.norm(env.command_manager.get_command(command_name)[:, :2], dim=1) > min_command_speed_mps
+
+
+def undesired_contacts(env, force_threshold_n: float, sensor_cfg: SceneEntityCfg) -> torch.Tensor:
+    """Number of selected bodies in recent contact."""
+    return torch.sum(_recent_contact(env, sensor_cfg, force_threshold_n), dim=1).float()
+
+
+def feet_slip(env, sensor_cfg: SceneEntityCfg, asset_cfg: SceneEntityCfg,
+              force_threshold_n: float = 1.0) -> torch.Tensor:
+    """Sum over feet in recent contact of the foot's horizontal speed [m/s].
+
+    sensor_cfg and asset_cfg must name the same feet in the same order (sensor bodies vs robot bodies).
+    """
+    in_contact = _recent_contact(env, sensor_cfg, force_threshold_n)
+    feet_vel_xy = env.scene[asset_cfg.name].body_vel_w[:, asset_cfg.body_ids, :2]
+    return torch.sum(torch.norm(feet_vel_xy, dim=-1) * in_contact, dim=1)
+
+
+def jumping(env, force_threshold_n: float, sensor_cfg: SceneEntityCfg) -> torch.Tensor:
+    """1 when no selected foot pushes on anything at the last physics step (AGILE G1: 10 N)."""
+    forces = torch.norm(env.scene[sensor_cfg.name].net_forces_w[:, sensor_cfg.body_ids], dim=-1)
+    return (forces < force_threshold_n).all(dim=1).float()
+
+
+def feet_stumble(env, sensor_cfg: SceneEntityCfg, force_threshold_n: float = 1.0) -> torch.Tensor:
+    """AGILE: the largest recent horizontal contact force on any selected foot above the threshold [N]."""
+    history = env.scene[sensor_cfg.name].net_forces_w_history[:, :, sensor_cfg.body_ids, :2]
+    largest = torch.norm(history, dim=-1).flatten(1).amax(dim=1)
+    return torch.relu(largest - force_threshold_n)
+
+
+def impact_velocity_l1(env, sensor_cfg: SceneEntityCfg, force_threshold_n: float = 10.0) -> torch.Tensor:
+    """Sum over feet in recent contact of their largest recent speed [m/s]: the speed at touchdown, since
+    the history reaches back to the physics steps before the impact."""
+    sensor = env.scene[sensor_cfg.name]
+    in_contact = _recent_contact(env, sensor_cfg, force_threshold_n)
+    speed = torch.norm(sensor.lin_vel_w_history[:, :, sensor_cfg.body_ids], dim=-1).amax(dim=1)
+    return torch.sum(speed * in_contact, dim=1)
+
+
+def equal_foot_force(env, sensor_cfg: SceneEntityCfg) -> torch.Tensor:
+    """1 - mean |F_z,foot - mean F_z| / mean F_z: 1 for an even vertical load, 0 with all of it on one of two feet."""
+    feet_z = env.scene[sensor_cfg.name].net_forces_w[:, sensor_cfg.body_ids, 2].abs()
+    mean = feet_z.mean(dim=1)
+    # no load at all (flight) scores 1, like an even split: the epsilon only avoids 0/0
+    return 1.0 - torch.abs(feet_z - mean.unsqueeze(1)).mean(dim=1) / (mean + 1e-6)
+
+
+def feet_air_time(env, command_name: str, threshold_s: float, sensor_cfg: SceneEntityCfg,
+                  min_command_speed_mps: float = 0.1) -> torch.Tensor:
+    """Isaac Lab: at each touchdown, the flight time minus threshold_s [s], summed over feet; 0 when the
+    commanded planar speed is at most min_command_speed_mps."""
+    sensor = env.scene[sensor_cfg.name]
+    first_contact = sensor.compute_first_contact(env.step_dt)[:, sensor_cfg.body_ids]
+    last_air_time = sensor.last_air_time_s[:, sensor_cfg.body_ids]
+    reward = torch.sum((last_air_time - threshold_s) * first_contact, dim=1)
+    return reward * _moving_command(env, command_name, min_command_speed_mps)
+
+
+def feet_air_time_positive_biped(env, command_name: str, threshold_s: float, sensor_cfg: SceneEntityCfg,
+                                 min_command_speed_mps: float = 0.1) -> torch.Tensor:
+    """Isaac Lab: in single stance, the shorter of the two feet's current phase times, capped at threshold_s [s];
+    0 in double stance or flight, and when the commanded planar speed is at most min_command_speed_mps."""
+    sensor = env.scene[sensor_cfg.name]
+    air_time = sensor.current_air_time_s[:, sensor_cfg.body_ids]
+    contact_time = sensor.current_contact_time_s[:, sensor_cfg.body_ids]
+    in_contact = contact_time > 0.0
+    phase_time = torch.where(in_contact, contact_time, air_time)
+    single_stance = torch.sum(in_contact.int(), dim=1) == 1
+    reward = torch.where(single_stance.unsqueeze(-1), phase_time, 0.0).amin(dim=1).clamp(max=threshold_s)
+    return reward * _moving_command(env, command_name, min_command_speed_mps)

@@ -24,3 +24,13 @@ def bad_orientation(env, limit_angle_rad: float, asset_cfg: SceneEntityCfg = ROB
 def root_height_below_minimum(env, minimum_height_m: float, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
     """Root below minimum_height_m above the flat ground (AGILE `illegal_base_height` on flat ground)."""
     return env.scene[asset_cfg.name].root_pos_w[:, 2] < minimum_height_m
+
+
+def illegal_ground_contact(env, force_threshold_n: float, min_height_m: float, sensor_cfg: SceneEntityCfg,
+                           asset_cfg: SceneEntityCfg) -> torch.Tensor:
+    """A selected sensor body had a recent contact force above the threshold [N] while the lowest of the
+    selected robot bodies is below min_height_m (world z): a fall, not a brush against an edge at full height."""
+    history = env.scene[sensor_cfg.name].net_forces_w_history[:, :, sensor_cfg.body_ids]
+    in_contact = (torch.norm(history, dim=-1).amax(dim=1) > force_threshold_n).any(dim=1)
+    lowest_m = env.scene[asset_cfg.name].body_pose_w[:, asset_cfg.body_ids, 2].amin(dim=1)
+    return in_contact & (lowest_m < min_height_m)

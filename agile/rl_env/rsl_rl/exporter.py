@@ -51,7 +51,8 @@ def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -
     robot = env.robot
     actions = []
     for name, term in env.action_manager.terms.items():
-        if name in training_only_actions:
+        # a term without action dimensions (random upper-body targets) is not part of the policy's output
+        if name in training_only_actions or term.action_dim == 0:
             continue
         entry = {"name": name, "type": type(term).__name__, "joint_names": list(term.joint_names),
                  "scale": _as_list(term.scale), "offset": _as_list(term.offset[0])}
