@@ -69,6 +69,9 @@ class VideoRecorder:
         target = root - np.array([0.0, 0.0, 0.2])
         pose = wp.transformf(wp.vec3f(*eye), wp.quatf(*_look_at_quat_xyzw(eye, target)))
         self.transforms.assign(wp.array([pose], dtype=wp.transformf, device=self.transforms.device))
+        # the ray tracer culls by the shape BVH built at finalize: without a refit a robot that has walked away
+        # from its spawn pose is culled and the frame shows only the ground
+        env.sim.model.bvh_refit_shapes(env.sim.state)
         self.camera.update(env.sim.state, self.transforms, self.rays, color_image=self.image)
         frame = self.image.numpy()[self.env_index].view(np.uint8).reshape(*self.size, 4)[..., :3]
         self.writer.append_data(frame)
