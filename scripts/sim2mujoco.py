@@ -230,6 +230,37 @@ def default_mjcf(descriptor: dict) -> str:
     return asset_file(robots[name])
 
 
+class MujocoVideo:
+    """Renders the MuJoCo rollout headless: the MuJoCo pose is copied into a Newton model of the same MJCF
+    (visual geoms) and drawn by Newton's Warp ray-tracing camera, so no OpenGL context is needed."""
+
+    def __init__(self, path: str, mjcf: str, fps: int):
+        import newton
+
+        from utils.recording import CameraVideo
+
+        builder = newton.ModelBuilder()
+        builder.add_mjcf(mjcf, floating=True, parse_visuals=True)
+        builder.add_ground_plane()
+        self.model = builder.finalize(device="cpu")
+        self.state = self.model.state()
+        self.video = CameraVideo(path, self.model, fps)
+        self.newton = newton
+
+    def __call__(self, mj_model, data) -> None:
+        if data.qpos.shape[0] != self.model.joint_coord_count:
+            raise SystemExit(f"error: MuJoCo has {data.qpos.shape[0]} position coordinates, Newton's import of the "
+                             f"same MJCF {self.model.joint_coord_count}: cannot copy the pose for the video")
+        q = data.qpos.astype(np.float32)
+        q[3:7] = q[[4, 5, 6, 3]]  # free-joint quaternion: MuJoCo w, x, y, z -> Newton x, y, z, w
+        self.state.joint_q.assign(q)
+        self.newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state)
+        self.video.write_frame(self.state, data.qpos[:3])
+
+    def close(self) -> None:
+        self.video.close()
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--io", required=True, help="io_descriptor.yaml written by scripts/export.py")
@@ -241,13 +272,22 @@ def main(argv=None) -> None:
                         help="fixed command (default: drawn per episode from the descriptor's ranges)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", default=None, help="write the metrics as JSON here")
+    parser.add_argument("--video", default=None, metavar="PATH.mp4",
+                        help="render the rollout headless into an mp4 (camera following the robot)")
     args = parser.parse_args(argv)
 
     import yaml
 
     descriptor = yaml.safe_load(Path(args.io).read_text())
     mjcf = args.mjcf or default_mjcf(descriptor)
-    metrics = run(descriptor, mjcf, args.policy, args.episodes, args.duration_s, args.command, args.seed)
+    video = MujocoVideo(args.video, mjcf, round(1.0 / descriptor["control_dt_s"])) if args.video else None
+    try:
+        metrics = run(descriptor, mjcf, args.policy, args.episodes, args.duration_s, args.command, args.seed,
+                      on_frame=video)
+    finally:
+        if video is not None:
+            video.close()
+            print(f"[sim2mujoco] video ({video.video.frames} frames) written to {args.video}")
     metrics.update({"io_descriptor": args.io, "policy": args.policy, "mjcf": mjcf, "command": args.command,
                     "duration_s": args.duration_s})
     print(json.dumps(metrics, indent=2))

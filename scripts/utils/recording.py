@@ -38,44 +38,55 @@ def _look_at_quat_xyzw(eye, target):
     return ((m[2, 1] - m[1, 2]) / (4 * w), (m[0, 2] - m[2, 0]) / (4 * w), (m[1, 0] - m[0, 1]) / (4 * w), w)
 
 
-class VideoRecorder:
-    """An mp4 of one env, rendered headless by Newton's Warp ray-tracing camera, which follows the robot."""
+class CameraVideo:
+    """An mp4 of one world of a Newton model, rendered headless by Newton's Warp ray-tracing camera, which
+    follows a point (the robot's root)."""
 
-    CAMERA_OFFSET_M = (1.8, -1.8, 0.7)  # from the robot's root, world frame
+    CAMERA_OFFSET_M = (1.8, -1.8, 0.7)  # from the followed point, world frame
 
-    def __init__(self, path: str, env, width: int = 640, height: int = 480, env_index: int = 0):
+    def __init__(self, path: str, model, fps: int, width: int = 640, height: int = 480, world_index: int = 0):
         import imageio.v2 as imageio
         import warp as wp
         from newton.sensors import SensorCamera
 
-        self.camera = SensorCamera(env.sim.model)
+        self.model = model
+        self.camera = SensorCamera(model)
         self.camera.create_default_light()
-        self.rays = SensorCamera.compute_camera_rays_pinhole(width, height, camera_fov=0.9,
-                                                             device=env.sim.model.device)
-        self.transforms = wp.array([wp.transform_identity()], dtype=wp.transformf, device=env.sim.model.device)
+        self.rays = SensorCamera.compute_camera_rays_pinhole(width, height, camera_fov=0.9, device=model.device)
+        self.transforms = wp.array([wp.transform_identity()], dtype=wp.transformf, device=model.device)
         self.image = self.camera.allocate_image_color(1, width, height)
         self.size = (height, width)
-        self.env_index = env_index
-        self.writer = imageio.get_writer(path, fps=round(1.0 / env.step_dt), macro_block_size=1)
+        self.world_index = world_index
+        self.writer = imageio.get_writer(path, fps=fps, macro_block_size=1)
         self.path = path
         self.frames = 0
 
-    def record(self, env, time_s: float | None = None) -> None:
+    def write_frame(self, state, follow_pos_m) -> None:
         import numpy as np
         import warp as wp
 
-        root = env.robot.root_pos_w[self.env_index].detach().cpu().numpy()
-        eye = root + np.asarray(self.CAMERA_OFFSET_M)
-        target = root - np.array([0.0, 0.0, 0.2])
+        eye = np.asarray(follow_pos_m, dtype=float) + np.asarray(self.CAMERA_OFFSET_M)
+        target = np.asarray(follow_pos_m, dtype=float) - np.array([0.0, 0.0, 0.2])
         pose = wp.transformf(wp.vec3f(*eye), wp.quatf(*_look_at_quat_xyzw(eye, target)))
         self.transforms.assign(wp.array([pose], dtype=wp.transformf, device=self.transforms.device))
         # the ray tracer culls by the shape BVH built at finalize: without a refit a robot that has walked away
         # from its spawn pose is culled and the frame shows only the ground
-        env.sim.model.bvh_refit_shapes(env.sim.state)
-        self.camera.update(env.sim.state, self.transforms, self.rays, color_image=self.image)
-        frame = self.image.numpy()[self.env_index].view(np.uint8).reshape(*self.size, 4)[..., :3]
+        self.model.bvh_refit_shapes(state)
+        self.camera.update(state, self.transforms, self.rays, color_image=self.image)
+        frame = self.image.numpy()[self.world_index].view(np.uint8).reshape(*self.size, 4)[..., :3]
         self.writer.append_data(frame)
         self.frames += 1
 
     def close(self) -> None:
         self.writer.close()
+
+
+class VideoRecorder(CameraVideo):
+    """An mp4 of one env of a ManagerBasedRLEnv."""
+
+    def __init__(self, path: str, env, width: int = 640, height: int = 480, env_index: int = 0):
+        super().__init__(path, env.sim.model, round(1.0 / env.step_dt), width, height, env_index)
+        self.env_index = env_index
+
+    def record(self, env, time_s: float | None = None) -> None:
+        self.write_frame(env.sim.state, env.robot.root_pos_w[self.env_index].detach().cpu().numpy())
