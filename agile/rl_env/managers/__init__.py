@@ -7,9 +7,9 @@ from agile.rl_env.managers.event_manager import EventManager
 from agile.rl_env.managers.observation_manager import ObservationManager
 from agile.rl_env.managers.reward_manager import RewardManager
 from agile.rl_env.managers.term_cfg import (CurrTerm, DoneTerm, EventTerm, ManagerTermBase, ObsGroup, ObsTerm,
-                                            RewTerm, SceneEntityCfg, UniformNoiseCfg, Unoise)
+                                            RewTerm, SceneEntityCfg, UniformNoiseCfg, Unoise, index_list)
 from agile.rl_env.managers.termination_manager import TerminationManager
 
 __all__ = ["ActionManager", "ActionTerm", "CommandManager", "CommandTerm", "CurrTerm", "CurriculumManager", "DoneTerm",
            "EventManager", "EventTerm", "ManagerTermBase", "ObsGroup", "ObsTerm", "ObservationManager", "RewTerm",
-           "RewardManager", "SceneEntityCfg", "TerminationManager", "UniformNoiseCfg", "Unoise"]
+           "RewardManager", "SceneEntityCfg", "TerminationManager", "UniformNoiseCfg", "Unoise", "index_list"]

@@ -38,6 +38,11 @@ class SceneEntityCfg:
                 self.body_ids = torch.tensor(ids, dtype=torch.long, device=env.device)
 
 
+def index_list(ids, count: int) -> list[int]:
+    """Resolved `joint_ids`/`body_ids` (a full slice or an index tensor) as a host list; build time only."""
+    return list(range(count)) if isinstance(ids, slice) else ids.tolist()
+
+
 @configclass
 class UniformNoiseCfg:
     """Additive noise drawn uniformly from [n_min, n_max]."""

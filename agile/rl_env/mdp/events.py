@@ -10,7 +10,7 @@ import torch
 import warp as wp
 
 from agile.actuators import ExplicitActuatorGroup
-from agile.rl_env.managers import SceneEntityCfg
+from agile.rl_env.managers import SceneEntityCfg, index_list
 from agile.utils.math import quat_from_euler_xyz, quat_mul
 
 ROBOT = SceneEntityCfg("robot")
@@ -109,10 +109,6 @@ def _apply_operation(values: torch.Tensor, sample: torch.Tensor, operation: str)
     raise ValueError(f"unknown operation '{operation}'; expected one of {OPERATIONS}")
 
 
-def _id_list(ids, count: int) -> list[int]:
-    return list(range(count)) if isinstance(ids, slice) else ids.tolist()
-
-
 def randomize_rigid_body_material(env, env_mask: torch.Tensor, static_friction_range: tuple[float, float],
                                   dynamic_friction_range: tuple[float, float],
                                   restitution_range: tuple[float, float], num_buckets: int = 64,
@@ -133,7 +129,7 @@ def randomize_rigid_body_material(env, env_mask: torch.Tensor, static_friction_r
     shape_world = model.shape_world.numpy()
     robot_shapes = np.flatnonzero(shape_world >= 0).reshape(n, -1)  # replicated worlds: same shapes, world-major
     local_body = model.shape_body.numpy()[robot_shapes[0]]
-    selected = np.isin(local_body, _id_list(asset_cfg.body_ids, robot.num_bodies))
+    selected = np.isin(local_body, index_list(asset_cfg.body_ids, robot.num_bodies))
     shape_ids = torch.as_tensor(robot_shapes[:, selected], dtype=torch.long, device=device)
 
     buckets = torch.stack([_uniform(r, num_buckets, device)

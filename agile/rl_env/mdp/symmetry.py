@@ -21,7 +21,7 @@ import numpy as np
 import torch
 from tensordict import TensorDict
 
-from agile.rl_env.managers import ObsTerm, SceneEntityCfg
+from agile.rl_env.managers import ObsTerm, SceneEntityCfg, index_list
 from agile.rl_env.managers.manager_base import collect_terms
 from agile.rl_env.mdp import observations as obs_terms
 
@@ -100,7 +100,7 @@ class GroupMirror:
             return [0, 1, 2], VELOCITY_COMMAND
         if func in (obs_terms.joint_pos, obs_terms.joint_pos_rel, obs_terms.joint_vel_rel):
             asset: SceneEntityCfg = term.params["asset_cfg"]
-            ids = list(range(env.robot.num_joints)) if isinstance(asset.joint_ids, slice) else asset.joint_ids.tolist()
+            ids = index_list(asset.joint_ids, env.robot.num_joints)
             return _sub_mirror(ids, self.joint_perm, self.joint_sign, where)
         if func is obs_terms.last_action and term.params.get("action_name") is None:
             return action_perm, action_sign
