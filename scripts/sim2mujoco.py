@@ -6,8 +6,9 @@
 
 Nothing of the training framework is used: observations and actions are rebuilt from the descriptor,
 the joint torques come from the descriptor's gains and DC-motor limits (computed at the physics rate and
-applied as joint forces), and the robot collides with a ground plane. The actuator delays of training are
-not modelled. Reports fall rate and velocity tracking errors like scripts/eval.py; writes JSON with --out.
+applied as joint forces), and the robot collides with a ground plane. A recurrent policy carries its hidden
+state from step to step and starts each episode from zeros. The actuator delays of training are not
+modelled. Reports fall rate and velocity tracking errors like scripts/eval.py; writes JSON with --out.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # for agile.assets (robot files) from a checkout
 
+IO_DESCRIPTOR_VERSION = 2  # what agile/rl_env/rsl_rl/exporter.py writes (this script does not import it)
 FALL_TILT_RAD = math.radians(60.0)
 FALL_HEIGHT_FRACTION = 0.5  # of the default root height
 
@@ -149,17 +151,51 @@ class Observer:
         return np.concatenate(parts).astype(np.float32)
 
 
-def load_policy(path: str):
+class OnnxPolicy:
+    """An ONNX policy stepped once per control step. A recurrent one gets its hidden state back every step
+    (names and shapes from the descriptor's "policy" section), zeros at reset(). `session` is anything with
+    ONNX Runtime's run(output_names, feeds): onnx's ReferenceEvaluator (no extra dependency) or onnxruntime's."""
+
+    def __init__(self, session, interface: dict):
+        self.session = session
+        self.interface = interface
+        self.hidden = interface.get("hidden_state", [])
+        self.reset()
+
+    def reset(self) -> None:
+        self.state = {h["input"]: np.zeros(h["shape"], dtype=np.float32) for h in self.hidden}
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        names = [self.interface["output"]] + [h["output"] for h in self.hidden]
+        action, *state = self.session.run(names, {self.interface["input"]: obs[None], **self.state})
+        self.state = {h["input"]: value for h, value in zip(self.hidden, state)}
+        return action[0]
+
+
+class TorchScriptPolicy:
+    """A TorchScript policy stepped once per control step; a recurrent one keeps its hidden state inside."""
+
+    def __init__(self, path: str):
+        import torch
+
+        self.torch = torch
+        self.module = torch.jit.load(path, map_location="cpu")
+
+    def reset(self) -> None:
+        self.module.reset()  # zeros a recurrent policy's hidden state (a no-op for an MLP)
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        with self.torch.no_grad():
+            return self.module(self.torch.from_numpy(obs)[None]).numpy()[0]
+
+
+def load_policy(path: str, interface: dict):
+    """policy.onnx or policy.pt as a callable obs -> action with reset() for the start of an episode."""
     if path.endswith(".onnx"):
         from onnx.reference import ReferenceEvaluator
 
-        evaluator = ReferenceEvaluator(path)
-        name = evaluator.input_names[0]
-        return lambda obs: evaluator.run(None, {name: obs[None]})[0][0]
-    import torch
-
-    module = torch.jit.load(path, map_location="cpu")
-    return lambda obs: module(torch.from_numpy(obs)[None]).detach().numpy()[0]
+        return OnnxPolicy(ReferenceEvaluator(path), interface)
+    return TorchScriptPolicy(path)
 
 
 def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s: float, command=None,
@@ -171,7 +207,7 @@ def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s
     data = mujoco.MjData(model)
     robot = Robot(descriptor, model)
     observer = Observer(descriptor, robot)
-    policy = load_policy(policy_path)
+    policy = load_policy(policy_path, descriptor["policy"])
     action_terms = descriptor["actions"]
     action_dim = sum(len(a["joint_names"]) for a in action_terms)
     ranges = next(iter(descriptor["commands"].values()))["ranges"]
@@ -185,6 +221,7 @@ def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s
         robot.target = robot.default_q.copy()
         mujoco.mj_forward(model, data)
         observer.reset()
+        policy.reset()
         cmd = np.array(command if command is not None else
                        [rng.uniform(*ranges["lin_vel_x"]), rng.uniform(*ranges["lin_vel_y"]),
                         rng.uniform(*ranges["ang_vel_z"])])
@@ -279,6 +316,9 @@ def main(argv=None) -> None:
     import yaml
 
     descriptor = yaml.safe_load(Path(args.io).read_text())
+    if descriptor.get("version") != IO_DESCRIPTOR_VERSION:
+        raise SystemExit(f"error: {args.io} is an IO descriptor of version {descriptor.get('version')}, this script "
+                         f"reads version {IO_DESCRIPTOR_VERSION}: export the policy again with scripts/export.py")
     mjcf = args.mjcf or default_mjcf(descriptor)
     video = MujocoVideo(args.video, mjcf, round(1.0 / descriptor["control_dt_s"])) if args.video else None
     try:

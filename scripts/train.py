@@ -38,14 +38,19 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
         runner.current_learning_iteration += 1
         done += chunk
         policy = runner.get_inference_policy(device=str(video_env.device))
+        # a recurrent actor holds the rollout's hidden state (a row per training env): set it aside for the clip
+        training_hidden_state = policy.get_hidden_state()
+        policy.reset()
         path = os.path.join(log_dir, "videos", f"iteration_{done}.mp4")
         recorder = VideoRecorder(path, video_env)
         obs, _ = video_env.reset()
         with torch.inference_mode():
             for _ in range(args.video_length):
-                obs, *_ = video_env.step(policy(flatten_groups(obs)))
+                obs, _, terminated, truncated, _ = video_env.step(policy(flatten_groups(obs)))
+                policy.reset(terminated | truncated)
                 recorder.record(video_env)
         recorder.close()
+        policy.reset(hidden_state=training_hidden_state)
         print(f"[agile] clip: {path}")
     video_env.close()
 

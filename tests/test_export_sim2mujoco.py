@@ -15,7 +15,7 @@ from rsl_rl.runners import OnPolicyRunner
 
 import agile.tasks
 from agile.assets.unitree_g1 import g1_robot_cfg
-from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, make_recurrent, to_rsl_rl_dict
 from agile.rl_env.rsl_rl.exporter import (example_input, export_policy, io_descriptor, read_io_descriptor,
                                           write_io_descriptor)
 from agile.sim import SimCfg, Simulation
@@ -24,16 +24,45 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 import sim2mujoco  # noqa: E402
 
 
-@pytest.fixture(scope="module")
-def exported(tmp_path_factory):
-    """A randomly initialised G1 policy exported with its env's descriptor: (env, runner, folder)."""
-    out = tmp_path_factory.mktemp("exported")
-    env = gym.make("Velocity-G1-History-v0", num_envs=2, device="cpu").unwrapped
-    _, agent_cfg = agile.tasks.load_cfgs("Velocity-G1-History-v0")
+TASK = "Velocity-G1-History-v0"
+
+
+def export_random_policy(env, agent_cfg, out: Path) -> OnPolicyRunner:
+    """A randomly initialised runner for `agent_cfg`, its actor exported into `out` with the env's descriptor."""
     runner = OnPolicyRunner(RslRlVecEnvWrapper(env), to_rsl_rl_dict(agent_cfg), log_dir=None, device="cpu")
+    # normaliser statistics away from (0, 1), so that the export has something to fold in
+    groups = agent_cfg.obs_groups["actor"]
+    samples = {g: torch.randn(64, env.observation_manager.group_dims[g]) * 2.0 + 0.5 for g in groups}
+    runner.alg.get_policy().update_normalization(samples)
     export_policy(runner, str(out))
     write_io_descriptor(str(out / "io_descriptor.yaml"), io_descriptor(env, agent_cfg))
-    return env, agent_cfg, runner, out
+    return runner
+
+
+def actor_input(agent_cfg, obs: torch.Tensor) -> dict:
+    """The training actor's input for the exported models' input (one actor observation group)."""
+    (group,) = agent_cfg.obs_groups["actor"]
+    return {group: obs}
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    """A randomly initialised G1 policy exported with its env's descriptor: (env, agent cfg, runner, folder)."""
+    out = tmp_path_factory.mktemp("exported")
+    env = gym.make(TASK, num_envs=2, device="cpu").unwrapped
+    _, agent_cfg = agile.tasks.load_cfgs(TASK)
+    return env, agent_cfg, export_random_policy(env, agent_cfg, out), out
+
+
+@pytest.fixture(scope="module", params=[("lstm", 2), ("gru", 1)], ids=["lstm", "gru"])
+def recurrent_exported(request, exported, tmp_path_factory):
+    """As `exported` (same env), with a recurrent actor and critic of (rnn type, layers), 32 hidden units."""
+    rnn_type, rnn_num_layers = request.param
+    env = exported[0]
+    out = tmp_path_factory.mktemp(f"exported_{rnn_type}")
+    _, agent_cfg = agile.tasks.load_cfgs(TASK)
+    make_recurrent(agent_cfg, rnn_type=rnn_type, rnn_hidden_dim=32, rnn_num_layers=rnn_num_layers)
+    return env, agent_cfg, export_random_policy(env, agent_cfg, out), out
 
 
 def test_exported_torchscript_and_onnx_match_the_training_policy(exported):
@@ -41,8 +70,7 @@ def test_exported_torchscript_and_onnx_match_the_training_policy(exported):
 
     env, agent_cfg, runner, out = exported
     obs = example_input(env, agent_cfg) + torch.randn(2, 1) * 0.1
-    expected = runner.get_inference_policy()(
-        {g: t for g, t in zip(agent_cfg.obs_groups["actor"], [obs])}).detach()
+    expected = runner.get_inference_policy()(actor_input(agent_cfg, obs)).detach()
     jit = torch.jit.load(str(out / "policy.pt"))
     assert torch.allclose(jit(obs), expected, atol=1e-5)
     assert not (out / "policy.onnx.data").exists()  # one self-contained file
@@ -61,6 +89,56 @@ def test_io_descriptor_round_trips_and_describes_the_policy_input(exported):
     assert sum(t["dim"] * max(t["history_length"], 1) for t in terms) == env.observation_manager.group_dims["policy"]
     assert len(descriptor["actions"][0]["joint_names"]) == 14 and descriptor["control_dt_s"] == pytest.approx(0.02)
     assert descriptor["actuators"]["legs"]["type"] == "DelayedDCMotorCfg"
+    assert descriptor["policy"] == {"input": "obs", "output": "actions", "recurrent": False}
+
+
+def test_recurrent_torchscript_and_onnx_match_the_training_policy_step_by_step(recurrent_exported):
+    import onnxruntime
+    from onnx.reference import ReferenceEvaluator
+
+    env, agent_cfg, runner, out = recurrent_exported
+    interface = read_io_descriptor(str(out / "io_descriptor.yaml"))["policy"]
+    steps = 6
+    obs = example_input(env, agent_cfg)[:1] + torch.randn(steps, 1, 1) * 0.3  # (steps, batch 1, obs_dim)
+    training = runner.get_inference_policy()
+    training.reset()  # zero hidden state; each call below carries it to the next
+    expected = torch.stack([training(actor_input(agent_cfg, o)).detach()[0] for o in obs]).numpy()
+    training.reset()
+    assert not np.allclose(training(actor_input(agent_cfg, obs[1])).detach()[0], expected[1], atol=1e-4), \
+        "the second action should depend on the hidden state left by the first step"
+    # sim2mujoco's stepping: TorchScript keeps the hidden state inside, ONNX gets it fed back by descriptor names
+    policies = {"torchscript": sim2mujoco.TorchScriptPolicy(str(out / "policy.pt")),
+                "onnx reference": sim2mujoco.OnnxPolicy(ReferenceEvaluator(str(out / "policy.onnx")), interface),
+                "onnxruntime": sim2mujoco.OnnxPolicy(onnxruntime.InferenceSession(str(out / "policy.onnx")),
+                                                     interface)}
+    for name, policy in policies.items():
+        for when in ("fresh", "after reset()"):
+            actions = np.stack([policy(o[0].numpy()) for o in obs])
+            assert np.allclose(actions, expected, atol=1e-5), f"{name}, {when}"
+            policy.reset()
+
+
+def test_recurrent_io_descriptor_round_trips_and_names_the_hidden_state(recurrent_exported):
+    import onnx
+
+    env, agent_cfg, _, out = recurrent_exported
+    descriptor = read_io_descriptor(str(out / "io_descriptor.yaml"))
+    assert descriptor == io_descriptor(env, agent_cfg)
+    interface = descriptor["policy"]
+    actor = agent_cfg.actor
+    assert interface["recurrent"] and interface["rnn_type"] == actor.rnn_type
+    assert interface["rnn_hidden_dim"] == 32 and interface["rnn_num_layers"] == actor.rnn_num_layers
+    assert len(interface["hidden_state"]) == {"lstm": 2, "gru": 1}[actor.rnn_type]  # LSTM: hidden and cell state
+    # the names and shapes are those of the ONNX file's inputs and outputs
+    graph = onnx.load(str(out / "policy.onnx")).graph
+
+    def shapes(values) -> dict:
+        return {v.name: [d.dim_value for d in v.type.tensor_type.shape.dim] for v in values}
+
+    obs_dim, action_dim = env.observation_manager.group_dims["policy"], env.action_manager.total_action_dim
+    hidden = interface["hidden_state"]
+    assert shapes(graph.input) == {interface["input"]: [1, obs_dim], **{h["input"]: h["shape"] for h in hidden}}
+    assert shapes(graph.output) == {interface["output"]: [1, action_dim], **{h["output"]: h["shape"] for h in hidden}}
 
 
 def test_g1_feet_are_imported_as_colliders():
@@ -97,14 +175,21 @@ def test_newton_and_plain_mujoco_agree_on_the_same_torques(exported):
     assert abs(robot.root_pos_w[0, 2].item() - data.qpos[2]) < 2e-3
 
 
-def test_sim2mujoco_runs_an_exported_policy(exported):
-    _, _, _, out = exported
+def check_sim2mujoco_runs(out: Path, episodes: int = 1) -> None:
     descriptor = read_io_descriptor(str(out / "io_descriptor.yaml"))
     for policy in ("policy.pt", "policy.onnx"):
-        metrics = sim2mujoco.run(descriptor, sim2mujoco.default_mjcf(descriptor), str(out / policy), episodes=1,
-                                 duration_s=0.5, command=[0.3, 0.0, 0.0])
-        assert metrics["episodes"] == 1 and 0 < metrics["mean_episode_length_s"] <= 0.5 + 1e-9
-        assert np.isfinite(metrics["lin_vel_error_mps"]) and metrics["falls"] in (0, 1)
+        metrics = sim2mujoco.run(descriptor, sim2mujoco.default_mjcf(descriptor), str(out / policy),
+                                 episodes=episodes, duration_s=0.5, command=[0.3, 0.0, 0.0])
+        assert metrics["episodes"] == episodes and 0 < metrics["mean_episode_length_s"] <= 0.5 + 1e-9
+        assert np.isfinite(metrics["lin_vel_error_mps"]) and 0 <= metrics["falls"] <= episodes
+
+
+def test_sim2mujoco_runs_an_exported_policy(exported):
+    check_sim2mujoco_runs(exported[-1])
+
+
+def test_sim2mujoco_runs_a_recurrent_policy(recurrent_exported):
+    check_sim2mujoco_runs(recurrent_exported[-1], episodes=2)  # with a reset of the hidden state in between
 
 
 def test_sim2mujoco_renders_a_video_headless(exported, tmp_path):

@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -136,9 +137,13 @@ def test_play_renders_a_video_headless(tmp_path):
 
 
 def test_train_records_clips_every_n_iterations(tmp_path):
+    # a recurrent policy: its 1-env clips must leave the training rollout's hidden state (2 envs) as it was
     code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "2",
                     "--device", "cpu", "--log_root", str(tmp_path), "--video", "--video_interval", "1",
-                    "--video_length", "3", "agent.num_steps_per_env=4")
+                    "--video_length", "3", "--rnn", "gru", "agent.num_steps_per_env=4", "agent.actor.rnn_hidden_dim=16",
+                    "agent.critic.rnn_hidden_dim=16")
     assert code == 0, out
     run_dir = next((tmp_path / "velocity_t1").iterdir())
     assert sorted(p.name for p in (run_dir / "videos").iterdir()) == ["iteration_1.mp4", "iteration_2.mp4"]
+    policy = yaml.safe_load((run_dir / "exported" / "io_descriptor.yaml").read_text())["policy"]
+    assert policy["recurrent"] and policy["rnn_type"] == "gru" and policy["rnn_hidden_dim"] == 16

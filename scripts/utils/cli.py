@@ -24,6 +24,9 @@ def add_common_args(parser: argparse.ArgumentParser) -> None:
                         help=f"parallel envs (default: the task's on GPU, {CPU_DEFAULT_NUM_ENVS} on CPU)")
     parser.add_argument("--device", default=None, help="cuda:0 or cpu (default: cuda:0 when a GPU is present)")
     parser.add_argument("--seed", type=int, default=None, help="random seed")
+    parser.add_argument("--rnn", choices=("lstm", "gru"), default=None,
+                        help="recurrent actor and critic (rsl-rl's RNNModel) instead of the task's MLPs, sized by "
+                             "agent.actor.rnn_hidden_dim=... etc.; needed again to play, eval or export the checkpoint")
     parser.add_argument("overrides", nargs="*", help=OVERRIDE_HELP)
 
 
@@ -45,6 +48,7 @@ def resolve_device(requested: str | None) -> str:
 def load_task(args) -> tuple:
     """(env cfg, agent cfg, device) for the task, with CLI overrides applied and checked."""
     import agile.tasks
+    from agile.rl_env.rsl_rl import make_recurrent
     from agile.utils.config import ConfigError, apply_overrides
 
     try:
@@ -59,6 +63,9 @@ def load_task(args) -> tuple:
     if args.seed is not None:
         env_cfg.seed = args.seed
         agent_cfg.seed = args.seed
+    rnn_type = getattr(args, "rnn", None)  # benchmark.py builds its own args, without --rnn
+    if rnn_type is not None:  # before the overrides, so that they can set the RNN's size
+        make_recurrent(agent_cfg, rnn_type=rnn_type)
     try:
         apply_overrides({"env": env_cfg, "agent": agent_cfg}, args.overrides)
     except ConfigError as err:

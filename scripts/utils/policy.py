@@ -38,4 +38,9 @@ def load_policy(checkpoint: str, env, agent_cfg):
     from agile.rl_env.rsl_rl import flatten_groups
 
     actor = load_runner(checkpoint, env, agent_cfg).get_inference_policy(device=str(env.device))
-    return lambda obs: actor(flatten_groups(obs))
+
+    def policy(obs):
+        actor.reset(env.episode_length_buf == 0)  # a recurrent actor starts each episode from a zero hidden state
+        return actor(flatten_groups(obs))
+
+    return policy

@@ -3,7 +3,7 @@
 The IO descriptor is everything a deployment (or `scripts/sim2mujoco.py`) needs to rebuild the policy's
 inputs and apply its outputs without this framework: joints in policy order, defaults, action scale,
 offset and clip, actuator gains and limits, every observation term in order with its scale, clip and
-history length, and the rates.
+history length, the rates, and the model files' interface (for a recurrent policy: its hidden state).
 """
 
 from __future__ import annotations
@@ -15,9 +15,14 @@ import yaml
 
 from agile.rl_env.managers import ObsGroup, ObsTerm, SceneEntityCfg
 from agile.rl_env.managers.manager_base import collect_terms
+from agile.rl_env.rsl_rl.runner_cfg import RnnModelCfg
 from agile.utils.config import callable_name
 
-IO_DESCRIPTOR_VERSION = 1
+IO_DESCRIPTOR_VERSION = 2  # 2: the "policy" section (model input/output names, recurrent hidden state)
+
+# Tensor names of rsl-rl's ONNX export (rsl_rl.models: MLPModel.as_onnx, RNNModel.as_onnx)
+ONNX_OBS_NAME, ONNX_ACTIONS_NAME = "obs", "actions"
+ONNX_HIDDEN_STATE_NAMES = {"lstm": [("h_in", "h_out"), ("c_in", "c_out")], "gru": [("h_in", "h_out")]}
 
 
 def _as_list(t) -> list:
@@ -44,6 +49,19 @@ def _observation_terms(env, group_name: str) -> list[dict]:
                 entry[key] = value
         terms.append(entry)
     return terms
+
+
+def _policy_interface(actor_cfg) -> dict:
+    """The exported model's input and output names; for a recurrent actor also its hidden-state tensors, each
+    (layers, batch 1, hidden) and fed from its output back to its input every step (zeros at episode start)."""
+    interface = {"input": ONNX_OBS_NAME, "output": ONNX_ACTIONS_NAME, "recurrent": isinstance(actor_cfg, RnnModelCfg)}
+    if interface["recurrent"]:
+        shape = [actor_cfg.rnn_num_layers, 1, actor_cfg.rnn_hidden_dim]
+        interface.update(rnn_type=actor_cfg.rnn_type, rnn_hidden_dim=actor_cfg.rnn_hidden_dim,
+                         rnn_num_layers=actor_cfg.rnn_num_layers,
+                         hidden_state=[{"input": name_in, "output": name_out, "shape": shape}
+                                       for name_in, name_out in ONNX_HIDDEN_STATE_NAMES[actor_cfg.rnn_type]])
+    return interface
 
 
 def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -> dict:
@@ -98,6 +116,7 @@ def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -
         "observation_groups": groups,
         "observations": {g: _observation_terms(env, g) for g in groups},
         "commands": commands,
+        "policy": _policy_interface(agent_cfg.actor),
     }
 
 
@@ -118,6 +137,9 @@ def export_policy(runner, out_dir: str) -> tuple[str, str]:
     """policy.pt (TorchScript) and policy.onnx (weights inside the file) of an RSL-RL runner's actor.
 
     Both take the actor's observation groups concatenated, (batch, obs_dim), and return the mean action.
+    A recurrent actor (rsl-rl's own export, batch 1) keeps its hidden state inside policy.pt, zeroed by its
+    reset() method, while policy.onnx takes it as inputs and returns the next one as outputs (the descriptor's
+    "policy" section names them).
     """
     import onnx
 

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import field
 
-from agile.utils.config import configclass, to_dict
+from agile.utils.config import ConfigError, configclass, to_dict
 
 
 @configclass
@@ -21,6 +22,20 @@ class MlpModelCfg:
     activation: str = "elu"
     obs_normalization: bool = False
     distribution_cfg: DistributionCfg | None = None
+
+
+RNN_TYPES = ("lstm", "gru")
+
+
+@configclass
+class RnnModelCfg(MlpModelCfg):
+    """rsl-rl's RNNModel: the (normalised) observations go through an LSTM or GRU whose output feeds the MLP."""
+
+    class_name: str = "RNNModel"
+    rnn_type: str = "lstm"
+    """One of RNN_TYPES."""
+    rnn_hidden_dim: int = 256
+    rnn_num_layers: int = 1
 
 
 @configclass
@@ -59,11 +74,27 @@ class PpoRunnerCfg:
     critic: MlpModelCfg = field(default_factory=MlpModelCfg)
 
 
+def make_recurrent(cfg: PpoRunnerCfg, rnn_type: str = "lstm", rnn_hidden_dim: int = 256,
+                   rnn_num_layers: int = 1) -> None:
+    """Turn the actor and critic of `cfg` into RnnModelCfg with the same MLP settings (in place)."""
+    for name in ("actor", "critic"):
+        mlp = getattr(cfg, name)
+        mlp_fields = {f.name: getattr(mlp, f.name) for f in dataclasses.fields(MlpModelCfg) if f.name != "class_name"}
+        setattr(cfg, name, RnnModelCfg(**mlp_fields, rnn_type=rnn_type, rnn_hidden_dim=rnn_hidden_dim,
+                                       rnn_num_layers=rnn_num_layers))
+    # rsl-rl's PPO raises on symmetry augmentation with recurrent models: train without the mirrored samples
+    cfg.algorithm.symmetry_cfg = None
+
+
 RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "clip_actions")
 
 
 def to_rsl_rl_dict(cfg: PpoRunnerCfg) -> dict:
     """The train_cfg dict of `rsl_rl.runners.OnPolicyRunner` (keys of ours that it does not know removed)."""
+    for model in (cfg.actor, cfg.critic):
+        # rsl-rl builds an LSTM for any rnn_type other than "gru", so a typo would silently train an LSTM
+        if isinstance(model, RnnModelCfg) and model.rnn_type not in RNN_TYPES:
+            raise ConfigError(f"rnn_type '{model.rnn_type}' is not one of {RNN_TYPES}")
     d = to_dict(cfg)
     for key in RUNNER_ONLY_KEYS:
         d.pop(key, None)
