@@ -6,12 +6,15 @@
 For each env count, from one process on one device: raw physics (the captured decimation loop alone, no
 managers), env.step with random actions and its ratio to raw physics, PPO training (rollout + update) and
 its ratio, startup (gym.make to the first step done), device memory in use, and the share of the env
-step spent in the explicit actuators (raw physics with and without them).
+step spent in the explicit actuators (raw physics with and without them). For a task on a terrain, the raw
+physics of the same robot on flat ground (no terrain, contact sensor or height rays) is measured first in a
+separate world, and the env.step and training rates are also given as ratios to it.
 """
 
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import time
 
@@ -34,6 +37,31 @@ def device_memory_used_gb(device) -> float | None:
     return (total - free) / 1e9
 
 
+def time_physics(sim, decimation: int, steps: int) -> float:
+    """env-steps/s of the captured decimation loop alone (with the actuators), no managers."""
+    for _ in range(5):
+        sim.step(decimation)
+    synchronize(sim.device)
+    start = time.perf_counter()
+    for _ in range(steps):
+        sim.step(decimation)
+    synchronize(sim.device)
+    return sim.num_envs * steps / (time.perf_counter() - start)
+
+
+def flat_raw_physics(env_cfg, device: str, steps: int) -> float:
+    """Raw physics of the task's robot on a ground plane (no terrain, contact sensor or height rays), in a
+    world of its own, released before returning."""
+    from agile.sim import Simulation
+
+    flat_cfg = copy.deepcopy(env_cfg.sim)
+    flat_cfg.terrain, flat_cfg.contact_sensor, flat_cfg.height_scanners = None, None, {}
+    sim = Simulation(flat_cfg, env_cfg.robot, env_cfg.num_envs, device, env_cfg.sim.physics_dt_s * env_cfg.decimation)
+    rate = time_physics(sim, env_cfg.decimation, steps)
+    del sim
+    return rate
+
+
 def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterations: int) -> dict:
     import torch
     from rsl_rl.runners import OnPolicyRunner
@@ -41,6 +69,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     from agile.rl_env import ManagerBasedRLEnv
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 
+    flat_raw = flat_raw_physics(env_cfg, device, steps) if env_cfg.sim.terrain is not None else None
     start = time.perf_counter()
     env = ManagerBasedRLEnv(env_cfg, task_name=task, device=device)
     n = env.num_envs
@@ -49,20 +78,9 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     synchronize(env.device)
     startup_s = time.perf_counter() - start
 
-    # raw physics: the captured decimation loop on the same world (with the actuators), no managers
-    def physics_rate() -> float:
-        for _ in range(5):
-            env.sim.step(env.cfg.decimation)
-        synchronize(env.device)
-        start = time.perf_counter()
-        for _ in range(steps):
-            env.sim.step(env.cfg.decimation)
-        synchronize(env.device)
-        return n * steps / (time.perf_counter() - start)
-
-    raw = physics_rate()
+    raw = time_physics(env.sim, env.cfg.decimation, steps)
     with env.sim.actuators_disabled():
-        raw_without_actuators = physics_rate()
+        raw_without_actuators = time_physics(env.sim, env.cfg.decimation, steps)
     env.reset()
 
     actions = torch.rand(steps, n, action_dim, device=env.device) * 2 - 1
@@ -86,9 +104,13 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     memory = device_memory_used_gb(env.device)
     env.close()
     actuator_s = n / raw - n / raw_without_actuators  # per env step
-    return {"num_envs": n, "raw_physics": raw, "raw_physics_without_actuators": raw_without_actuators,
-            "actuator_share_of_env_step": actuator_s / (n / full), "env_step": full, "env_step_ratio": full / raw,
-            "train": train, "train_ratio": train / raw, "startup_s": startup_s, "device_memory_gb": memory}
+    result = {"num_envs": n, "raw_physics": raw, "raw_physics_without_actuators": raw_without_actuators,
+              "actuator_share_of_env_step": actuator_s / (n / full), "env_step": full, "env_step_ratio": full / raw,
+              "train": train, "train_ratio": train / raw, "startup_s": startup_s, "device_memory_gb": memory}
+    if flat_raw is not None:
+        result.update(flat_raw_physics=flat_raw, env_step_ratio_to_flat=full / flat_raw,
+                      train_ratio_to_flat=train / flat_raw)
+    return result
 
 
 def main(argv=None) -> None:
@@ -123,6 +145,13 @@ def main(argv=None) -> None:
         print(f"{r['num_envs']:>7} {r['raw_physics']:>12.0f} {r['env_step']:>10.0f} {r['env_step_ratio']:>6.2f} "
               f"{r['train']:>10.0f} {r['train_ratio']:>6.2f} {r['startup_s']:>9.1f} {mem:>7} "
               f"{100 * r['actuator_share_of_env_step']:>8.1f}%")
+    flat_rows = [r for r in rows if "flat_raw_physics" in r]
+    if flat_rows:
+        print("\nthe same robot on flat ground (raw physics) and the ratios to it")
+        print(f"{'envs':>7} {'flat raw':>12} {'env.step':>10} {'ratio':>6} {'train':>10} {'ratio':>6}")
+        for r in flat_rows:
+            print(f"{r['num_envs']:>7} {r['flat_raw_physics']:>12.0f} {r['env_step']:>10.0f} "
+                  f"{r['env_step_ratio_to_flat']:>6.2f} {r['train']:>10.0f} {r['train_ratio_to_flat']:>6.2f}")
     if args.out:
         with open(args.out, "w") as f:
             json.dump({"task": args.task, "device": name, "results": rows}, f, indent=2)

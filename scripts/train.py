@@ -2,6 +2,7 @@
 
     python scripts/train.py --task Velocity-T1-v0 --num_envs 4096 --max_iterations 3000
     python scripts/train.py --task Velocity-T1-v0 --resume            # newest checkpoint of the experiment
+    python scripts/train.py --task Velocity-G1-History-v0 --init_policy agile/data/policy/Velocity-G1-History-v0.pt
     python scripts/train.py --task Velocity-T1-v0 agent.algorithm.learning_rate=5e-4 env.episode_length_s=20
 
 Checkpoints, tensorboard logs and the resolved configs go to logs/rsl_rl/<experiment>/<time>_<run>/.
@@ -61,6 +62,9 @@ def main(argv=None) -> None:
     parser.add_argument("--max_iterations", type=int, default=None, help="PPO iterations (default: the task's)")
     parser.add_argument("--resume", action="store_true", help="continue from a checkpoint (--checkpoint or newest)")
     parser.add_argument("--checkpoint", default=None, help="checkpoint file to resume from")
+    parser.add_argument("--init_policy", default=None,
+                        help="start a new run from this checkpoint's actor weights only (fresh critic, optimizer and "
+                        "iteration count), e.g. a shipped policy to fine-tune on a changed task")
     parser.add_argument("--logger", choices=["tensorboard", "wandb", "neptune"], default=None)
     parser.add_argument("--run_name", default=None, help="suffix of the log folder")
     parser.add_argument("--log_root", default=os.path.join("logs", "rsl_rl"))
@@ -82,6 +86,10 @@ def main(argv=None) -> None:
         resume_path = args.checkpoint or cli.latest_checkpoint(args.log_root, agent_cfg.experiment_name)
         if not os.path.isfile(resume_path):
             sys.exit(f"error: checkpoint not found: {resume_path}")
+    if args.init_policy and resume_path:
+        sys.exit("error: --init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
+    if args.init_policy and not os.path.isfile(args.init_policy):
+        sys.exit(f"error: --init_policy file not found: {args.init_policy}")
 
     from rsl_rl.runners import OnPolicyRunner
 
@@ -97,6 +105,9 @@ def main(argv=None) -> None:
     if resume_path:
         print(f"[agile] resuming from {resume_path}")
         runner.load(resume_path)
+    if args.init_policy:
+        print(f"[agile] actor initialised from {args.init_policy}")
+        runner.load(args.init_policy, load_cfg={"actor": True}, map_location=str(env.device))
     if args.video:
         learn_with_clips(runner, args, env_cfg, device, log_dir, agent_cfg.max_iterations)
     else:

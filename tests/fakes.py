@@ -17,6 +17,7 @@ class FakeRobot:
         self.default_joint_pos, self.default_joint_vel = z(n, j), z(n, j)
         self.joint_pos_target = z(n, j)
         self.joint_pos_limits = torch.stack((-torch.ones(n, j), torch.ones(n, j)), dim=-1)
+        self.soft_joint_pos_limits = self.joint_pos_limits.clone()
         self.joint_vel_limit = torch.full((n, j), 10.0)
         self.applied_torque, self.computed_torque = z(n, j), z(n, j)
         self.root_pos_w = z(n, 3)

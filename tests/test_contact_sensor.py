@@ -6,12 +6,11 @@ from fakes import FakeEnv
 
 from agile.assets.booster_t1 import t1_robot_cfg
 from agile.rl_env import ManagerBasedRLEnv, mdp
-from agile.rl_env.managers import DoneTerm, RewTerm, SceneEntityCfg
+from agile.rl_env.managers import SceneEntityCfg
 from agile.sim import ContactSensorCfg, SimCfg, Simulation
 from agile.sim.names import resolve_names
-from agile.tasks.locomotion.t1.velocity_env_cfg import RewardsCfg, T1VelocityEnvCfg
-from agile.tasks.locomotion.velocity_common import VelocityTerminationsCfg
-from agile.utils.config import configclass
+from agile.tasks.locomotion.g1.velocity_history_env_cfg import G1VelocityHistoryEnvCfg
+from agile.tasks.locomotion.t1.velocity_env_cfg import T1VelocityEnvCfg
 
 GRAVITY_MPS2 = 9.81
 PHYSICS_STEPS = 4
@@ -118,36 +117,17 @@ def test_air_time_needs_tracking():
         sim.contact_sensor.compute_first_contact(STEP_DT_S)
 
 
-@configclass
-class ContactRewardsCfg(RewardsCfg):
-    feet_slip = RewTerm(func=mdp.feet_slip, weight=-0.1,
-                        params={"sensor_cfg": SceneEntityCfg("contact_forces", body_names=".*_foot_link"),
-                                "asset_cfg": SceneEntityCfg("robot", body_names=".*_foot_link")})
-    collision = RewTerm(func=mdp.undesired_contacts, weight=-0.2,
-                        params={"sensor_cfg": SceneEntityCfg("contact_forces", body_names="Trunk"),
-                                "force_threshold_n": 1.0})
-
-
-@configclass
-class ContactTerminationsCfg(VelocityTerminationsCfg):
-    illegal_ground_contact = DoneTerm(
-        func=mdp.illegal_ground_contact,
-        params={"sensor_cfg": SceneEntityCfg("contact_forces", body_names="Trunk"),
-                "asset_cfg": SceneEntityCfg("robot", body_names="Trunk"), "force_threshold_n": 20.0,
-                "min_height_m": 0.45})
-
-
-def test_env_terms_reach_the_sensor_and_env_reset_clears_it():
-    cfg = T1VelocityEnvCfg(num_envs=2, rewards=ContactRewardsCfg(), terminations=ContactTerminationsCfg())
-    cfg.sim.contact_sensor = ContactSensorCfg(body_names=SENSED)
-    env = ManagerBasedRLEnv(cfg, device="cpu")
+@pytest.mark.parametrize("task_cfg", [T1VelocityEnvCfg, G1VelocityHistoryEnvCfg])
+def test_task_contact_terms_reach_the_sensor_and_env_reset_clears_it(task_cfg):
+    env = ManagerBasedRLEnv(task_cfg(num_envs=2), device="cpu")
     sensor = env.scene["contact_forces"]
-    feet, _ = sensor.find_bodies(".*_foot_link")
+    feet = env.reward_manager.get_term_cfg("feet_slip").params["sensor_cfg"].body_ids
     action = torch.zeros(2, env.action_manager.total_action_dim)
     for _ in range(10):
         env.step(action)
     assert (sensor.net_forces_w[:, feet].norm(dim=-1) > 1.0).all()
-    assert {"feet_slip", "collision"} <= set(env.reward_manager.active_terms)
+    assert {"feet_slip", "root_acc"} <= set(env.reward_manager.active_terms)
+    assert "illegal_ground_contact" in env.termination_manager.active_terms
     env.reset()
     assert (sensor.net_forces_w_history == 0.0).all() and (sensor.current_contact_time_s == 0.0).all()
 

@@ -42,6 +42,24 @@ def test_train_writes_checkpoint_logs_and_configs_then_resumes(trained_run):
     assert code == 0 and "resuming from" in out, out
 
 
+def test_train_init_policy_starts_from_the_shipped_actor(tmp_path):
+    import torch
+
+    shipped = ROOT / "agile" / "data" / "policy" / "Velocity-T1-v0.pt"
+    code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "1",
+                    "--device", "cpu", "--log_root", str(tmp_path), "--init_policy", str(shipped),
+                    "agent.num_steps_per_env=4")
+    assert code == 0 and "actor initialised from" in out, out
+    checkpoint = next((tmp_path / "velocity_t1").iterdir()) / "model_0.pt"
+    trained = torch.load(checkpoint, weights_only=False)
+    assert trained["iter"] == 0
+    shipped_std = torch.load(shipped, weights_only=False)["actor_state_dict"]["distribution.std_param"]
+    assert (shipped_std < 0.5).all()  # a fresh actor starts at 1.0: the weights did come from the file
+    assert torch.allclose(trained["actor_state_dict"]["distribution.std_param"], shipped_std, atol=0.02)
+    code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--device", "cpu", "--init_policy", "nope.pt")
+    assert code != 0 and "--init_policy file not found" in out
+
+
 def test_train_rejects_bad_input(tmp_path):
     code, out = run("scripts/train.py", "--task", "Nope-v0", "--device", "cpu")
     assert code != 0 and "Registered tasks" in out

@@ -14,8 +14,10 @@ TASKS = ["Velocity-T1-v0", "Velocity-G1-History-v0"]
 
 @pytest.fixture(scope="module", params=TASKS)
 def env(request):
+    # randomised centres of mass make each world's robot asymmetric (and the base velocity of the COM with them)
     env = gym.make(request.param, num_envs=2, device="cpu",
-                   overrides=["observations.policy.enable_corruption=False"]).unwrapped
+                   overrides=["observations.policy.enable_corruption=False", "events.body_com=null",
+                              "events.base_com=null"]).unwrapped
     yield env
     env.close()
 

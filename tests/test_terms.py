@@ -68,6 +68,10 @@ def test_joint_limit_terms():
     robot = env.robot
     robot.joint_pos[:] = torch.tensor([1.5, -1.2, 0.0])  # limits are ±1
     assert mdp.joint_pos_limits(env, asset_cfg=_entity(env)).item() == pytest.approx(0.5 + 0.2)
+    robot.soft_joint_pos_limits = robot.joint_pos_limits * 0.9  # Isaac Lab soft limits, factor 0.9 about 0
+    robot.joint_pos[:] = torch.tensor([0.95, -0.5, 0.0])
+    assert mdp.joint_pos_limits(env, asset_cfg=_entity(env)).item() == pytest.approx(0.05)
+    robot.soft_joint_pos_limits = robot.joint_pos_limits.clone()
     robot.joint_vel[:] = torch.tensor([9.5, -20.0, 1.0])  # limit 10, soft 0.9 -> 9
     assert mdp.joint_vel_limits(env, soft_ratio=0.9, asset_cfg=_entity(env)).item() == pytest.approx(0.5 + 1.0)
     robot.computed_torque[:] = torch.tensor([30.0, -5.0, 1.0])

@@ -33,6 +33,9 @@ T1_ARMATURE = 0.02
 T1_FRICTION = 0.01
 T1_SATURATION_EFFORT = 130.0  # [N·m]
 T1_MAX_DELAY_PHYSICS_STEPS = 8  # 0-40 ms at 200 Hz
+# AGILE `T1_DELAYED_DC_CFG.soft_joint_pos_limit_factor`: the knee's soft lower limit is 0.117 rad, so a policy
+# standing on straight knees pressed into the hard stop (q = 0) pays dof_pos_limits; without it one does
+T1_SOFT_JOINT_POS_LIMIT_FACTOR = 0.9
 
 T1_GAINS = dict(joint_names_expr=[".*"], stiffness=T1_STIFFNESS, damping=T1_DAMPING, effort_limit=T1_EFFORT_LIMIT,
                 velocity_limit=T1_VELOCITY_LIMIT, armature=T1_ARMATURE, friction=T1_FRICTION)
@@ -55,4 +58,5 @@ def t1_robot_cfg(actuators: str = "delayed_dc_motor") -> RobotCfg:
         init_pos_m=(0.0, 0.0, INIT_HEIGHT_M),
         init_joint_pos=dict(INIT_JOINT_POS),
         actuators=ACTUATOR_SETS[actuators](),
+        soft_joint_pos_limit_factor=T1_SOFT_JOINT_POS_LIMIT_FACTOR,
     )

@@ -43,6 +43,7 @@ ARMS = dict(effort_limit={".*_shoulder_.*|.*_elbow_joint|.*_wrist_roll_joint": 2
 
 
 MAX_DELAY_PHYSICS_STEPS = 4  # 0-20 ms at 200 Hz
+SOFT_JOINT_POS_LIMIT_FACTOR = 0.9  # Isaac Lab's G1 configs: dof_pos_limits penalises the outer 5% of each range
 
 
 def _delayed_dc_motor_set() -> dict:
@@ -118,4 +119,5 @@ def g1_robot_cfg(actuators: str = "delayed_dc_motor") -> RobotCfg:
         enable_all_colliders=True,
         mjcf_collider_classes=("collision", "foot_box", "foot_capsule"),
         actuators=ACTUATOR_SETS[actuators](),
+        soft_joint_pos_limit_factor=SOFT_JOINT_POS_LIMIT_FACTOR,
     )

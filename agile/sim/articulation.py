@@ -24,7 +24,8 @@ class Articulation:
     """
 
     def __init__(self, model: newton.Model, state: newton.State, control: newton.Control,
-                 joint_names: list[str], body_names: list[str], step_dt_s: float, computed_effort: wp.array):
+                 joint_names: list[str], body_names: list[str], step_dt_s: float, computed_effort: wp.array,
+                 soft_joint_pos_limit_factor: float = 1.0):
         n = model.world_count
         self.num_envs = n
         self.joint_names = list(joint_names)
@@ -71,6 +72,9 @@ class Articulation:
         self.joint_pos_limits = torch.stack(
             (wp.to_torch(model.joint_limit_lower).view(n, -1)[:, 6:],
              wp.to_torch(model.joint_limit_upper).view(n, -1)[:, 6:]), dim=-1)
+        mid = self.joint_pos_limits.mean(dim=-1, keepdim=True)
+        self.soft_joint_pos_limits = mid + (self.joint_pos_limits - mid) * soft_joint_pos_limit_factor
+        """(N, J, 2) limits the position-limit penalty uses (Isaac Lab `soft_joint_pos_limits`) [rad]."""
         self.joint_vel_limit = wp.to_torch(model.joint_velocity_limit).view(n, -1)[:, 6:]
         self.body_com_b = wp.to_torch(model.body_com).view(n, self.num_bodies, 3)
         self.root_com_offset_b = self.body_com_b[:, 0]
@@ -79,6 +83,11 @@ class Articulation:
         self._body_inv_mass = wp.to_torch(model.body_inv_mass).view(n, self.num_bodies)
         self._body_inv_inertia = wp.to_torch(model.body_inv_inertia).view(n, self.num_bodies, 3, 3)
         # -- defaults (copies: what a reset returns to)
+        # world 0's joint parameters as built, before domain randomisation: what an exported policy's robot has
+        self.nominal_joint_stiffness = self.joint_stiffness[0].clone()
+        self.nominal_joint_damping = self.joint_damping[0].clone()
+        self.nominal_joint_friction = self.joint_friction[0].clone()
+        self.nominal_joint_armature = self.joint_armature[0].clone()
         self.default_root_pose = self.root_pose_w.clone()
         self.default_joint_pos = self.joint_pos.clone()
         self.default_joint_vel = torch.zeros_like(self.joint_vel)

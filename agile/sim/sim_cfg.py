@@ -21,6 +21,10 @@ class RobotCfg:
     """Default joint positions [rad] as {joint-name regex: value}; joints not named start at 0."""
     actuators: dict[str, ImplicitActuatorCfg] = field(default_factory=dict)
     """Actuator groups by name. Joints in no group keep the gains of the model file."""
+    soft_joint_pos_limit_factor: float = 1.0
+    """Isaac Lab `ArticulationCfg.soft_joint_pos_limit_factor`: the soft position limits (what the
+    `joint_pos_limits` penalty measures against) are the model's limits shrunk about their midpoint by this
+    factor (0.9 in AGILE's T1 and Isaac Lab's G1 configs); 1.0 penalises only motion beyond the hard limits."""
     enable_all_colliders: bool = False
     """Turn on collision for collider shapes the file disables (Menagerie `g1_mjx.xml` uses contype=0
     with explicit contact pairs, which Newton does not import)."""

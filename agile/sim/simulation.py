@@ -178,7 +178,7 @@ class Simulation:
         self.computed_effort = wp.zeros_like(self.state.joint_qd)
         """Explicit actuators' torque before clipping, per DoF (their clipped torque is control.joint_f)."""
         self.robot = Articulation(self.model, self.state, self.control, joint_names, body_names, step_dt_s,
-                                  self.computed_effort)
+                                  self.computed_effort, robot_cfg.soft_joint_pos_limit_factor)
         self.actuator_groups: list[ExplicitActuatorGroup | DelayedTargetGroup] = []
         """Per-physics-step actuator work: explicit torque models and delayed implicit targets."""
         for name, act in robot_cfg.actuators.items():

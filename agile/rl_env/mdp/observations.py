@@ -61,6 +61,17 @@ def contact_force_norm(env, sensor_cfg: SceneEntityCfg) -> torch.Tensor:
     return torch.norm(env.scene[sensor_cfg.name].net_forces_w[:, sensor_cfg.body_ids], dim=-1)
 
 
+def base_height_above_ground(env, asset_cfg: SceneEntityCfg = ROBOT, sensor_name: str | None = None) -> torch.Tensor:
+    """(N,) root height [m] above z=0 without a sensor, above the mean terrain height under the height
+    scanner `sensor_name` with one (AGILE's terrain-adjusted base height)."""
+    height = env.scene[asset_cfg.name].root_pos_w[:, 2]
+    if sensor_name is None:
+        return height
+    scanner = env.scene[sensor_name]
+    scanner.update()
+    return height - scanner.hit_z_m.mean(dim=1)
+
+
 def height_scan(env, sensor_name: str, offset_m: float = 0.5,
                 clip_m: tuple[float, float] = (-1.0, 1.0)) -> torch.Tensor:
     """(N, R) sensor height minus the terrain height under each ray, minus `offset_m` (Isaac Lab's

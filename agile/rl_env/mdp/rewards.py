@@ -5,6 +5,7 @@ from __future__ import annotations
 import torch
 
 from agile.rl_env.managers import SceneEntityCfg
+from agile.rl_env.mdp.observations import base_height_above_ground
 from agile.utils.math import quat_rotate_inverse, wrap_to_pi, yaw_from_quat
 
 ROBOT = SceneEntityCfg("robot")
@@ -35,13 +36,8 @@ def track_ang_vel_z_exp(env, std: float, command_name: str, asset_cfg: SceneEnti
 
 def base_height_exp(env, target_height_m: float, std: float, asset_cfg: SceneEntityCfg = ROBOT,
                     sensor_name: str | None = None) -> torch.Tensor:
-    """exp(-(h - h_target)² / std²) with h the root height above the ground: above z=0 without a sensor,
-    above the mean terrain height under the height scanner `sensor_name` with one."""
-    height = env.scene[asset_cfg.name].root_pos_w[:, 2]
-    if sensor_name is not None:
-        scanner = env.scene[sensor_name]
-        scanner.update()
-        height = height - scanner.hit_z_m.mean(dim=1)
+    """exp(-(h - h_target)² / std²) with h the root height above the ground (`base_height_above_ground`)."""
+    height = base_height_above_ground(env, asset_cfg, sensor_name)
     return torch.exp(-torch.square(height - target_height_m) / std**2)
 
 
@@ -104,11 +100,12 @@ def joint_deviation_l1(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
 
 
 def joint_pos_limits(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
-    """Sum of how far joints are outside their position limits [rad]."""
+    """Sum of how far joints are outside their soft position limits [rad] (Isaac Lab: the hard limits shrunk
+    by `RobotCfg.soft_joint_pos_limit_factor`)."""
     robot = env.scene[asset_cfg.name]
     ids = asset_cfg.joint_ids
     pos = robot.joint_pos[:, ids]
-    limits = robot.joint_pos_limits[:, ids]
+    limits = robot.soft_joint_pos_limits[:, ids]
     below = (limits[..., 0] - pos).clamp(min=0.0)
     above = (pos - limits[..., 1]).clamp(min=0.0)
     return torch.sum(below + above, dim=1)

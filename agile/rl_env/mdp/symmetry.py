@@ -71,6 +71,8 @@ class GroupMirror:
         self.joint_perm, self.joint_sign = joint_mirror(robot.joint_names, axes)
         action_perm, action_sign = [], []
         for name, term in env.action_manager.terms.items():
+            if term.action_dim == 0:  # random upper-body targets: joints driven, no policy output
+                continue
             p, s = _sub_mirror(term.joint_ids.tolist(), self.joint_perm, self.joint_sign, f"action term '{name}'")
             offset = len(action_perm)
             action_perm += [offset + k for k in p]

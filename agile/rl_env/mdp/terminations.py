@@ -5,6 +5,7 @@ from __future__ import annotations
 import torch
 
 from agile.rl_env.managers import SceneEntityCfg
+from agile.rl_env.mdp.observations import base_height_above_ground
 from agile.rl_env.mdp.rewards import _body_projected_gravity
 
 ROBOT = SceneEntityCfg("robot")
@@ -21,9 +22,11 @@ def bad_orientation(env, limit_angle_rad: float, asset_cfg: SceneEntityCfg = ROB
     return (tilt > limit_angle_rad).any(dim=1)
 
 
-def root_height_below_minimum(env, minimum_height_m: float, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
-    """Root below minimum_height_m above the flat ground (AGILE `illegal_base_height` on flat ground)."""
-    return env.scene[asset_cfg.name].root_pos_w[:, 2] < minimum_height_m
+def root_height_below_minimum(env, minimum_height_m: float, asset_cfg: SceneEntityCfg = ROBOT,
+                              sensor_name: str | None = None) -> torch.Tensor:
+    """Root below minimum_height_m above the ground (AGILE `illegal_base_height`; terrain-relative with the
+    height scanner `sensor_name`, see `base_height_above_ground`)."""
+    return base_height_above_ground(env, asset_cfg, sensor_name) < minimum_height_m
 
 
 def illegal_ground_contact(env, force_threshold_n: float, min_height_m: float, sensor_cfg: SceneEntityCfg,

@@ -1,4 +1,5 @@
-"""Blocks shared by the velocity tasks (identical in AGILE's T1 and G1 configs), built once here."""
+"""Blocks shared by the velocity tasks (identical in AGILE's T1 and G1 configs, with the robot's bodies as
+arguments), built once here."""
 
 from __future__ import annotations
 
@@ -6,6 +7,8 @@ import math
 
 from agile.rl_env import mdp
 from agile.rl_env.managers import CurrTerm, DoneTerm, EventTerm, ObsGroup, ObsTerm, SceneEntityCfg, Unoise
+from agile.sim.sim_cfg import ContactSensorCfg, HeightScannerCfg, SimCfg, SolverCfg
+from agile.sim.terrain import TerrainGeneratorCfg
 from agile.utils.config import configclass
 
 
@@ -16,10 +19,70 @@ def velocity_command_cfg() -> mdp.UniformNullVelocityCommandCfg:
         ranges=mdp.VelocityRangesCfg(lin_vel_x=(-0.5, 0.5), lin_vel_y=(-0.5, 0.5), ang_vel_z=(-1.0, 1.0)))
 
 
+BASE_HEIGHT_SENSOR = "height_measurement_sensor"
+"""AGILE's one downward ray under the base: base height above the terrain for rewards and terminations."""
+CONTACT_SENSOR = "contact_forces"
+ROBOT_FRICTION_RANGE = (0.2, 1.0)
+"""Dynamic friction drawn per robot collider at startup (AGILE: static 0.2-1.5, dynamic 0.2-1.0)."""
+
+
+def velocity_sim_cfg(terrain: TerrainGeneratorCfg, base_body: str, sensed_bodies: list[str],
+                     max_contacts_per_world: int) -> SimCfg:
+    """200 Hz MuJoCo physics on a generated terrain with the terrain curriculum's start rows (0-5, Isaac Lab),
+    a contact sensor on the bodies the contact terms read, and the base-height ray.
+
+    Newton's height-field collision reports several contacts per foot collider and terrain triangle
+    (including near, not yet touching ones): size `max_contacts_per_world` from a measurement."""
+    return SimCfg(
+        physics_dt_s=0.005, env_spacing_m=2.5,
+        solver=SolverCfg(iterations=10, ls_iterations=20, njmax=300, nconmax=max_contacts_per_world),
+        terrain=terrain, max_init_terrain_level=5,
+        # a MuJoCo contact takes the larger friction of its two geoms: ground at the bottom of the robot's
+        # randomised range lets each world's drawn foot friction decide (Isaac Lab multiplies by a ground of 1)
+        ground_friction=ROBOT_FRICTION_RANGE[0],
+        contact_sensor=ContactSensorCfg(body_names=sensed_bodies, history_length=3, track_air_time=True),
+        height_scanners={BASE_HEIGHT_SENSOR: HeightScannerCfg(body_name=base_body)})
+
+
 @configclass
 class VelocityEventsCfg:
-    """Resets and pushes of the velocity tasks (the domain randomisation arrives with the terrain issue)."""
+    """Domain randomisation (startup: each world draws its own robot once), disturbances and resets.
+    Startup terms run in order on the current values: the base-mass offset adds to the scaled mass."""
 
+    # -- startup
+    physics_material = EventTerm(
+        func=mdp.randomize_rigid_body_material, mode="startup",
+        params={"static_friction_range": (0.2, 1.5), "dynamic_friction_range": ROBOT_FRICTION_RANGE,
+                "restitution_range": (0.0, 0.1), "num_buckets": 64})
+    actuator_gains = EventTerm(
+        func=mdp.randomize_actuator_gains, mode="startup",
+        params={"stiffness_distribution_params": (0.9, 1.1), "damping_distribution_params": (0.8, 2.0),
+                "operation": "scale"})
+    joint_friction = EventTerm(
+        func=mdp.randomize_joint_parameters, mode="startup",
+        params={"friction_distribution_params": (0.0, 0.005), "operation": "abs"})
+    joint_armature = EventTerm(
+        func=mdp.randomize_joint_parameters, mode="startup",
+        params={"armature_distribution_params": (0.0, 2.0), "operation": "scale"})
+    body_mass = EventTerm(
+        func=mdp.randomize_rigid_body_mass, mode="startup",
+        params={"mass_distribution_params": (0.95, 1.05), "operation": "scale"})
+    base_mass = EventTerm(func=mdp.randomize_rigid_body_mass, mode="startup",
+                          params={"mass_distribution_params": (0.0, 0.0), "operation": "add"})
+    body_com = EventTerm(func=mdp.randomize_rigid_body_com, mode="startup",
+                         params={"com_range": {"x": (-0.01, 0.01), "y": (-0.01, 0.01), "z": (-0.01, 0.01)}})
+    base_com = EventTerm(func=mdp.randomize_rigid_body_com, mode="startup", params={"com_range": {}})
+    # -- interval
+    base_external_wrench = EventTerm(func=mdp.apply_external_force_torque, mode="interval", interval_range_s=(0.0, 10.0),
+                                     params={"force_range": (-10.0, 10.0), "torque_range": (-5.0, 5.0)})
+    extremities_external_wrench = EventTerm(func=mdp.apply_external_force_torque, mode="interval",
+                                            interval_range_s=(0.0, 10.0),
+                                            params={"force_range": (-5.0, 5.0), "torque_range": (-0.5, 0.5)})
+    push_robot = EventTerm(
+        func=mdp.push_by_setting_velocity, mode="interval", interval_range_s=(2.0, 5.0),
+        params={"velocity_range": {"x": (-0.5, 0.5), "y": (-0.5, 0.5), "roll": (-0.25, 0.25),
+                                   "pitch": (-0.25, 0.25), "yaw": (-0.25, 0.25)}})
+    # -- reset
     reset_base = EventTerm(
         func=mdp.reset_root_state_uniform, mode="reset",
         params={"pose_range": {"x": (-2.5, 2.5), "y": (-2.5, 2.5), "roll": (-math.radians(10), math.radians(10)),
@@ -29,10 +92,29 @@ class VelocityEventsCfg:
     reset_robot_joints = EventTerm(
         func=mdp.reset_joints_by_scale, mode="reset",
         params={"position_range": (0.8, 1.2), "velocity_range": (-1.0, 1.0)})
-    push_robot = EventTerm(
-        func=mdp.push_by_setting_velocity, mode="interval", interval_range_s=(2.0, 5.0),
-        params={"velocity_range": {"x": (-0.5, 0.5), "y": (-0.5, 0.5), "roll": (-0.25, 0.25),
-                                   "pitch": (-0.25, 0.25), "yaw": (-0.25, 0.25)}})
+
+
+def velocity_events_cfg(base_body: str, base_mass_add_kg: tuple[float, float],
+                        base_com_range_m: dict[str, tuple[float, float]], extremity_bodies: list[str]) -> VelocityEventsCfg:
+    """The events with the robot's base (extra mass, centre-of-mass shift, 10 N pushes) and extremities
+    (hands and feet: 5 N pushes)."""
+    cfg = VelocityEventsCfg()
+    base = SceneEntityCfg("robot", body_names=base_body)
+    cfg.base_mass.params.update(mass_distribution_params=base_mass_add_kg, asset_cfg=base)
+    cfg.base_com.params.update(com_range=base_com_range_m, asset_cfg=base)
+    cfg.base_external_wrench.params["asset_cfg"] = base
+    cfg.extremities_external_wrench.params["asset_cfg"] = SceneEntityCfg("robot", body_names=extremity_bodies)
+    return cfg
+
+
+def random_upper_body_action_cfg(policy_joints: list[str]) -> mdp.RandomActionCfg:
+    """AGILE `random_pos`: every joint the policy does not control moves to random targets on trapezoidal
+    velocity profiles, new targets every 0.1-2.5 s, so the policy learns to walk with moving arms."""
+    return mdp.RandomActionCfg(
+        joint_names_exclude=policy_joints, sample_range_s=(0.1, 2.5),
+        velocity_profile_cfg=mdp.TrapezoidalVelocityProfileCfg(
+            acceleration_range=(1.0, 20.0), max_velocity_range=(10.0, 20.0), min_cruise_ratio=0.1,
+            synchronize_joints=True, time_scaling_method="max_time"))
 
 
 @configclass
@@ -77,18 +159,27 @@ class VelocityTerminationsCfg:
     # 100% of the early episodes and collapsed the policy's action noise (measured at iteration 50)
     time_out = DoneTerm(func=mdp.time_out, time_out=True)
     bad_orientation = DoneTerm(func=mdp.bad_orientation, params={"limit_angle_rad": math.radians(30.0)})
-    illegal_base_height = DoneTerm(func=mdp.root_height_below_minimum, params={"minimum_height_m": 0.0})
+    illegal_ground_contact = DoneTerm(func=mdp.illegal_ground_contact,
+                                      params={"force_threshold_n": 20.0, "min_height_m": 0.45})
+    illegal_base_height = DoneTerm(func=mdp.root_height_below_minimum,
+                                   params={"minimum_height_m": 0.0, "sensor_name": BASE_HEIGHT_SENSOR})
 
 
-def velocity_terminations_cfg(base_height_target_m: float) -> VelocityTerminationsCfg:
-    """Time-out; root tilted beyond 30°; root more than 0.3 m below its target height."""
+def velocity_terminations_cfg(base_height_target_m: float, trunk_bodies: list[str]) -> VelocityTerminationsCfg:
+    """Time-out; root tilted beyond 30°; a trunk body pushing on something (> 20 N) while one of them is below
+    0.45 m; root more than 0.3 m below its target height above the terrain."""
     cfg = VelocityTerminationsCfg()
+    cfg.illegal_ground_contact.params.update(sensor_cfg=SceneEntityCfg(CONTACT_SENSOR, body_names=trunk_bodies),
+                                             asset_cfg=SceneEntityCfg("robot", body_names=trunk_bodies))
     cfg.illegal_base_height.params["minimum_height_m"] = base_height_target_m - 0.3
     return cfg
 
 
 @configclass
-class ActionRateCurriculumCfg:
+class VelocityCurriculumCfg:
+    terrain_levels = CurrTerm(func=mdp.terrain_levels_vel,
+                              params={"command_name": "base_velocity", "move_up_distance_m": 4.0,
+                                      "move_down_distance_m": 2.0, "n_successes": 4, "n_failures": 10})
     action_rate = CurrTerm(func=mdp.update_reward_weight_step,
                            params={"reward_name": "action_rate", "start_step": 50_000, "num_steps": 100_000,
                                    "terminal_weight": 0.0})
@@ -97,9 +188,10 @@ class ActionRateCurriculumCfg:
                                         "num_steps": 100_000, "terminal_weight": 0.0})
 
 
-def action_rate_curriculum_cfg(action_rate_final: float, action_rate_rate_final: float) -> ActionRateCurriculumCfg:
-    """Ramp the action-rate penalties from 50k (and 60k) env steps over 100k steps to their final weights."""
-    cfg = ActionRateCurriculumCfg()
+def velocity_curriculum_cfg(action_rate_final: float, action_rate_rate_final: float) -> VelocityCurriculumCfg:
+    """Terrain rows by distance walked (up after 4 episodes beyond 4 m, down after 10 short of 2 m); the
+    action-rate penalties ramp from 50k (and 60k) env steps over 100k steps to their final weights."""
+    cfg = VelocityCurriculumCfg()
     cfg.action_rate.params["terminal_weight"] = action_rate_final
     cfg.action_rate_rate.params["terminal_weight"] = action_rate_rate_final
     return cfg
