@@ -193,6 +193,12 @@ def test_env_origins_come_from_terrain_cells(box_sim):
     assert sim.terrain_origins_m[2, 0, 2].item() == pytest.approx(0.2)  # platform: two 0.1 m steps
 
 
+def test_terrain_contacts_use_the_configured_gap(box_sim):
+    # Newton's 0.1 m default gap made every foot collect contacts from every triangle within 10 cm
+    gap = box_sim.model.shape_gap.numpy()
+    assert np.all(gap == pytest.approx(SimCfg().terrain_contact_gap_m)) and SimCfg().terrain_contact_gap_m < 0.1
+
+
 def test_box_rests_on_step_and_platform(box_sim):
     sim = box_sim
     # on the platform (0.2 m), on the first step ring (0.1 m), on the border (0 m), on the second ring (0.2 m)

@@ -93,6 +93,11 @@ class SimCfg:
     """Friction of the ground plane, or of the terrain."""
     terrain: TerrainGeneratorCfg | None = None
     """None: a flat ground plane at z=0. Else a generated height field; envs spawn at its cells."""
+    terrain_contact_gap_m: float = 0.02
+    """Speculative contact distance of every shape on a terrain (Newton `shape_gap`; its default is 0.1 m).
+    Newton's pipeline collects contacts against every terrain triangle within this distance: 0.1 m cost
+    3-4x the contacts and 5-6x the collision time of 0.02 m (CPU, 64 worlds). 0.02 m is 4 physics steps of
+    a foot at 1 m/s, or one at 4 m/s."""
     max_init_terrain_level: int | None = None
     """Envs start on a row drawn from [0, this]; None allows every row."""
     height_scanners: dict[str, HeightScannerCfg] = field(default_factory=dict)

@@ -156,6 +156,8 @@ class Simulation:
             self.terrain = load_or_generate_terrain(cfg.terrain)
             scene.add_shape_heightfield(heightfield=terrain_heightfield(self.terrain), cfg=ground_cfg, label="terrain")
         self.model = scene.finalize(device=self.wp_device)
+        if self.terrain is not None:
+            self.model.shape_gap.fill_(cfg.terrain_contact_gap_m)
         s = cfg.solver
         self.solver = newton.solvers.SolverMuJoCo(
             self.model, iterations=s.iterations, ls_iterations=s.ls_iterations, njmax=s.njmax, nconmax=s.nconmax,

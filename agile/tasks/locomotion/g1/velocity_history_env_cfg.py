@@ -64,7 +64,8 @@ class RewardsCfg:
                                   "asset_cfg": SceneEntityCfg("robot", body_names=["pelvis", "torso_link"])})
     lin_vel_z = RewTerm(func=mdp.lin_vel_z_l2, weight=-0.25)
     ang_vel_xy = RewTerm(func=mdp.ang_vel_xy_l2, weight=-0.25)
-    root_acc = RewTerm(func=mdp.body_acc_l2, weight=-1.0e-5, params={"asset_cfg": SceneEntityCfg("robot", body_names="pelvis")})
+    root_acc = RewTerm(func=mdp.body_acc_l2, weight=-1.0e-5,
+                       params={"asset_cfg": SceneEntityCfg("robot", body_names="pelvis")})
     jumping = RewTerm(func=mdp.jumping, weight=-20.0, params={"sensor_cfg": FEET_CONTACT, "force_threshold_n": 10.0})
     # -- joints
     torques = RewTerm(func=mdp.joint_torques_l2, weight=-5.0e-5, params={"asset_cfg": LEGS})
@@ -95,7 +96,7 @@ class G1VelocityHistoryEnvCfg(ManagerBasedRLEnvCfg):
     episode_length_s = 30.0
     sim = velocity_sim_cfg(MEDIUM_ROUGH_TERRAIN_CFG, base_body="pelvis",
                            sensed_bodies=["pelvis", "torso_link", *FOOT_BODIES],
-                           max_contacts_per_world=256)  # standing: about 150
+                           max_contacts_per_world=256)  # standing about 55, flailing up to 125
     robot = g1_robot_cfg()
     commands = CommandsCfg()
     actions = ActionsCfg()

@@ -58,9 +58,11 @@ class RewardsCfg:
     orientation = RewTerm(func=mdp.flat_orientation_l2, weight=-5.0)
     lin_vel_z = RewTerm(func=mdp.lin_vel_z_l2, weight=-0.5)
     ang_vel_xy = RewTerm(func=mdp.ang_vel_xy_l2, weight=-0.5)
-    root_acc = RewTerm(func=mdp.body_acc_l2, weight=-2.0e-5, params={"asset_cfg": SceneEntityCfg("robot", body_names="Trunk")})
+    root_acc = RewTerm(func=mdp.body_acc_l2, weight=-2.0e-5,
+                       params={"asset_cfg": SceneEntityCfg("robot", body_names="Trunk")})
     collision = RewTerm(func=mdp.undesired_contacts, weight=-0.2,
-                        params={"sensor_cfg": SceneEntityCfg(CONTACT_SENSOR, body_names="Trunk"), "force_threshold_n": 1.0})
+                        params={"sensor_cfg": SceneEntityCfg(CONTACT_SENSOR, body_names="Trunk"),
+                                "force_threshold_n": 1.0})
     # -- joints
     torques = RewTerm(func=mdp.joint_torques_l2, weight=-1.0e-4, params={"asset_cfg": LEGS})
     ankle_torques = RewTerm(func=mdp.joint_torques_l2, weight=-1.0e-4,
@@ -89,7 +91,7 @@ class T1VelocityEnvCfg(ManagerBasedRLEnvCfg):
     decimation = 4  # 50 Hz policy
     episode_length_s = 30.0
     sim = velocity_sim_cfg(LESS_ROUGH_TERRAIN_CFG, base_body="Trunk", sensed_bodies=["Trunk", "Waist", *FOOT_BODIES],
-                           max_contacts_per_world=128)  # standing: about 50
+                           max_contacts_per_world=128)  # standing about 15, flailing up to 75
     robot = t1_robot_cfg()
     commands = CommandsCfg()
     actions = ActionsCfg()
