@@ -77,13 +77,10 @@ def main(argv=None) -> None:
     parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
     args = parser.parse_args(argv)
 
-    env_cfg, agent_cfg, device = cli.load_task(args)
-    import agile.tasks
-
-    checkpoint = args.checkpoint or agile.tasks.pretrained_policy(args.task)
+    checkpoint = args.checkpoint or cli.shipped_policy(args)
     if checkpoint is None:
         raise SystemExit(f"error: no --checkpoint given and agile ships no policy for {args.task}")
-    checkpoint = str(checkpoint)
+    env_cfg, agent_cfg, device = cli.load_task(args)
     env_cfg = inference_cfg(env_cfg)
     if args.command is not None:
         command = env_cfg.commands.base_velocity

@@ -35,12 +35,10 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
     if args.num_envs is None:
         args.num_envs = 1
-    env_cfg, agent_cfg, device = cli.load_task(args)
-    import agile.tasks
-
-    checkpoint = args.checkpoint or agile.tasks.pretrained_policy(args.task)
+    checkpoint = args.checkpoint or cli.shipped_policy(args)
     if checkpoint is None:
         raise SystemExit(f"error: no --checkpoint given and agile ships no policy for {args.task}")
+    env_cfg, agent_cfg, device = cli.load_task(args)
     env = cli.make_env(args.task, inference_cfg(env_cfg), device)
     paths = export(args.task, env, agent_cfg, load_runner(str(checkpoint), env, agent_cfg), args.out)
     for kind, path in paths.items():

@@ -42,14 +42,11 @@ def main(argv=None) -> None:
     parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
     args = parser.parse_args(argv)
 
+    checkpoint = args.checkpoint
+    if checkpoint is None and not args.sinusoidal:
+        checkpoint = cli.shipped_policy(args)
     env_cfg, agent_cfg, device = cli.load_task(args)
     import torch
-
-    import agile.tasks
-
-    checkpoint = args.checkpoint
-    if checkpoint is None and not args.sinusoidal and agile.tasks.pretrained_policy(args.task) is not None:
-        checkpoint = str(agile.tasks.pretrained_policy(args.task))
     env = cli.make_env(args.task, inference_cfg(env_cfg), device)
     policy = load_policy(checkpoint, env, agent_cfg) if checkpoint and not args.sinusoidal else None
     print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "

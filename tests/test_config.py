@@ -65,3 +65,14 @@ def test_to_dict_names_functions():
     d = to_dict(Outer())
     assert d["term"]["func"].endswith(":_double")
     assert d["inner"] == {"weight": 1.0, "names": [".*"]}
+
+
+@pytest.mark.parametrize("task", ["Velocity-T1-v0", "Velocity-G1-History-v0"])
+def test_shipped_policy_conditions_still_name_real_fields(task):
+    import agile.tasks
+
+    trained_on, overrides = agile.tasks.pretrained_policy_conditions(task)
+    assert trained_on and overrides
+    env_cfg, agent_cfg = agile.tasks.load_cfgs(task)
+    apply_overrides({"env": env_cfg, "agent": agent_cfg}, overrides)  # a renamed field raises ConfigError
+    assert env_cfg.sim.terrain is None and env_cfg.actions.random_pos is None

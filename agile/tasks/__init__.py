@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import gymnasium as gym
+import yaml
 
 from agile.tasks.locomotion import g1, t1  # noqa: F401  (registration side effect)
 from agile.utils.config import load_entry_point
@@ -36,3 +37,14 @@ def pretrained_policy(task: str) -> Path | None:
     """The policy shipped with agile for a task (agile/data/policy/<task>.pt), if there is one."""
     path = PRETRAINED_DIR / f"{task}.pt"
     return path if path.is_file() else None
+
+
+def pretrained_policy_conditions(task: str) -> tuple[str, list[str]]:
+    """(what the shipped policy was trained on, the config overrides `env.<field>=<value>` that give that
+    env) from agile/data/policy/<task>.yaml; ("", []) when it was trained on the task as registered."""
+    path = PRETRAINED_DIR / f"{task}.yaml"
+    if not path.is_file():
+        return "", []
+    with open(path) as f:
+        spec = yaml.safe_load(f)
+    return spec["trained_on"], list(spec["env_overrides"])

@@ -45,6 +45,23 @@ def resolve_device(requested: str | None) -> str:
     return requested
 
 
+def shipped_policy(args) -> str | None:
+    """The policy agile ships for args.task, used when no --checkpoint is given. Where it was trained on
+    other conditions than the task's current config, those conditions go before the user's overrides
+    (which still win), so that it runs in the env it learned in."""
+    import agile.tasks
+
+    path = agile.tasks.pretrained_policy(args.task)
+    if path is None:
+        return None
+    trained_on, overrides = agile.tasks.pretrained_policy_conditions(args.task)
+    if overrides:
+        print(f"[agile] shipped policy: trained on {trained_on}; running it there ({len(overrides)} overrides "
+              f"from {path.with_suffix('.yaml').name}). Train on the task as registered for a policy of the full task.")
+        args.overrides = [*overrides, *args.overrides]
+    return str(path)
+
+
 def load_task(args) -> tuple:
     """(env cfg, agent cfg, device) for the task, with CLI overrides applied and checked."""
     import agile.tasks
