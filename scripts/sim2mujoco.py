@@ -71,9 +71,16 @@ class Robot:
         for group in descriptor["actuators"].values():
             if "saturation_effort" in group:
                 self.saturation[[self.index[n] for n in group["joint_names"]]] = group["saturation_effort"]
+        self.root_com_b = model.body_ipos[int(model.jnt_bodyid[0])].copy()  # of the free joint's body
         model.dof_armature[self.dof_adr] = descriptor["armature"]
         model.dof_frictionloss[self.dof_adr] = descriptor["friction"]
         self.target = self.default_q.copy()
+
+    def root_lin_vel_b(self, data) -> np.ndarray:
+        """The root body's centre-of-mass velocity in its frame: training's (Isaac Lab's) root_lin_vel_b.
+        MuJoCo's free-joint velocity is the frame origin's (world frame) with the angular part in the body
+        frame, so v_com_b = R^T v_origin + w_b x r_com_b."""
+        return rotate_inverse(data.qpos[3:7], data.qvel[0:3]) + np.cross(data.qvel[3:6], self.root_com_b)
 
     def torque(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """PD on the targets, clipped by the DC-motor torque-speed line and the effort limit."""
@@ -118,7 +125,7 @@ class Observer:
         qd = data.qvel[r.dof_adr][ids]
         func = term["func"]
         if func == "base_lin_vel":
-            return rotate_inverse(quat, data.qvel[0:3])
+            return r.root_lin_vel_b(data)
         if func == "base_ang_vel":
             return data.qvel[3:6].copy()  # MuJoCo's free-joint angular velocity is in the body frame
         if func == "projected_gravity":
@@ -243,7 +250,7 @@ def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s
                 mujoco.mj_step(model, data)
             if on_frame is not None:
                 on_frame(model, data)
-            v_b = rotate_inverse(data.qpos[3:7], data.qvel[0:3])
+            v_b = robot.root_lin_vel_b(data)
             lin_errors.append(float(np.linalg.norm(cmd[:2] - v_b[:2])))
             ang_errors.append(float(abs(cmd[2] - data.qvel[5])))
             gravity_z = rotate_inverse(data.qpos[3:7], np.array([0.0, 0.0, -1.0]))[2]

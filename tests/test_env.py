@@ -98,3 +98,16 @@ def test_user_robot_files_load(asset):
 def test_missing_robot_file_is_reported():
     with pytest.raises(FileNotFoundError, match="robot model file not found"):
         Simulation(SimCfg(), RobotCfg(model_file="/nonexistent/robot.xml"), 1, "cpu", 0.02)
+
+
+def test_root_velocity_is_the_centre_of_mass_velocity(t1_env):
+    # Isaac Lab's root_lin_vel_b is root_com_lin_vel_b: a base spinning about its centre of mass has none
+    robot, n = t1_env.robot, t1_env.num_envs
+    assert robot.body_com_b[0, 0, :2].norm() > 0.01  # off the spin axis through the frame origin
+    spin = torch.tensor([0.0, 0.0, 0.0, 0.0, 0.0, 2.0]).repeat(n, 1)
+    robot.write_root_state(robot.root_pose_w.clone(), spin, torch.ones(n, dtype=torch.bool))
+    t1_env.sim.forward()
+    robot.update()
+    assert torch.allclose(robot.root_lin_vel_b, torch.zeros(n, 3), atol=1e-5)
+    assert torch.allclose(robot.root_ang_vel_w[:, 2], torch.full((n,), 2.0), atol=1e-5)
+    t1_env.reset()

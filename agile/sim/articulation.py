@@ -9,7 +9,7 @@ import torch
 import warp as wp
 
 from agile.sim.names import resolve_names
-from agile.utils.math import quat_rotate, quat_rotate_inverse, yaw_from_quat
+from agile.utils.math import quat_rotate_inverse, yaw_from_quat
 
 GRAVITY_DIR_W = (0.0, 0.0, -1.0)
 
@@ -77,7 +77,6 @@ class Articulation:
         """(N, J, 2) limits the position-limit penalty uses (Isaac Lab `soft_joint_pos_limits`) [rad]."""
         self.joint_vel_limit = wp.to_torch(model.joint_velocity_limit).view(n, -1)[:, 6:]
         self.body_com_b = wp.to_torch(model.body_com).view(n, self.num_bodies, 3)
-        self.root_com_offset_b = self.body_com_b[:, 0]
         self.body_mass = wp.to_torch(model.body_mass).view(n, self.num_bodies)
         self.body_inertia = wp.to_torch(model.body_inertia).view(n, self.num_bodies, 3, 3)  # about the COM
         self._body_inv_mass = wp.to_torch(model.body_inv_mass).view(n, self.num_bodies)
@@ -127,9 +126,10 @@ class Articulation:
         quat = self.root_quat_w
         com_vel = self.root_com_vel_w
         ang_vel_w = com_vel[:, 3:6]
-        com_offset_w = quat_rotate(quat, self.root_com_offset_b)
-        # v_origin = v_com + w x (p_origin - p_com)
-        self.root_lin_vel_w[:] = com_vel[:, :3] - torch.cross(ang_vel_w, com_offset_w, dim=-1)
+        # Isaac Lab's root velocity (root_lin_vel_b = root_com_lin_vel_b) is the root body's centre-of-mass
+        # velocity, not its frame origin's: the two differ by w x r_com, up to 0.15 m/s at 1 rad/s when the
+        # centre of mass is randomised
+        self.root_lin_vel_w[:] = com_vel[:, :3]
         self.root_ang_vel_w[:] = ang_vel_w
         self.root_lin_vel_b[:] = quat_rotate_inverse(quat, self.root_lin_vel_w)
         self.root_ang_vel_b[:] = quat_rotate_inverse(quat, ang_vel_w)
