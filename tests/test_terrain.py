@@ -306,6 +306,7 @@ def test_height_scan_observation_and_terrain_relative_base_height(box_sim):
 
     sim = box_sim
     place(sim, [(0.0, 0.0), (1.25, 0.0), (0.0, -1.8), (0.0, 0.0)], 0.6)
+    sim.height_scanners["scan"].update()  # what the env does once per step
     env = SimpleNamespace(scene={"robot": sim.robot, "scan": sim.height_scanners["scan"]})
     scan = height_scan(env, "scan", offset_m=0.5)
     # the body is 0.6 m above the cell origin, which sits on the platform under env 0

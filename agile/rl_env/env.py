@@ -216,6 +216,11 @@ class ManagerBasedRLEnv(gym.Env):
         obs, reward, terminated, time_outs = self._graph_outputs
         return obs.clone(), reward.clone(), terminated.clone(), time_outs.clone()
 
+    def _update_height_scanners(self) -> None:
+        # once per step, after the robot's state: several terms read the same rays
+        for scanner in self.sim.height_scanners.values():
+            scanner.update()
+
     def _step(self, action: torch.Tensor):
         self.action_manager.process_action(action)
         self.action_manager.apply_action()
@@ -223,6 +228,7 @@ class ManagerBasedRLEnv(gym.Env):
         self.episode_length_buf += 1
         self.common_step_counter += 1
         self.robot.update()
+        self._update_height_scanners()
         self.robot.update_accelerations()
         self.robot.compute_pd_torque()
 
@@ -271,6 +277,7 @@ class ManagerBasedRLEnv(gym.Env):
         self.event_manager.apply("reset", env_mask)
         self.sim.forward(env_mask)
         robot.update()
+        self._update_height_scanners()
 
         for manager in (self.action_manager, self.command_manager, self.observation_manager, self.event_manager):
             manager.reset(env_mask)

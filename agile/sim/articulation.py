@@ -49,6 +49,11 @@ class Articulation:
         self.root_quat_w = coords[:, 3:7]
         self.joint_pos = coords[:, 7:]
         self.root_com_vel_w = dofs[:, :6]  # Newton: COM linear velocity and angular velocity, world frame
+        # Isaac Lab's root velocity (root_lin_vel_w = root_com_lin_vel_w) is the root body's centre-of-mass
+        # velocity, not its frame origin's: they differ by w x r_com, up to 0.15 m/s at 1 rad/s when the centre
+        # of mass is randomised
+        self.root_lin_vel_w = dofs[:, :3]
+        self.root_ang_vel_w = dofs[:, 3:6]
         self.joint_vel = dofs[:, 6:]
         self.body_pose_w = wp.to_torch(state.body_q).view(n, self.num_bodies, 7)
         self.body_vel_w = wp.to_torch(state.body_qd).view(n, self.num_bodies, 6)  # COM lin vel, ang vel
@@ -92,8 +97,6 @@ class Articulation:
         self.default_joint_vel = torch.zeros_like(self.joint_vel)
         # -- derived, refreshed by update()
         self.gravity_dir_w = torch.tensor(GRAVITY_DIR_W, device=self.device).expand(n, 3)
-        self.root_lin_vel_w = torch.zeros(n, 3, device=self.device)
-        self.root_ang_vel_w = torch.zeros(n, 3, device=self.device)
         self.root_lin_vel_b = torch.zeros(n, 3, device=self.device)
         self.root_ang_vel_b = torch.zeros(n, 3, device=self.device)
         self.projected_gravity_b = torch.zeros(n, 3, device=self.device)
@@ -124,15 +127,8 @@ class Articulation:
     def update(self) -> None:
         """Refresh derived quantities from the state; once per env step, after physics or a reset."""
         quat = self.root_quat_w
-        com_vel = self.root_com_vel_w
-        ang_vel_w = com_vel[:, 3:6]
-        # Isaac Lab's root velocity (root_lin_vel_b = root_com_lin_vel_b) is the root body's centre-of-mass
-        # velocity, not its frame origin's: the two differ by w x r_com, up to 0.15 m/s at 1 rad/s when the
-        # centre of mass is randomised
-        self.root_lin_vel_w[:] = com_vel[:, :3]
-        self.root_ang_vel_w[:] = ang_vel_w
         self.root_lin_vel_b[:] = quat_rotate_inverse(quat, self.root_lin_vel_w)
-        self.root_ang_vel_b[:] = quat_rotate_inverse(quat, ang_vel_w)
+        self.root_ang_vel_b[:] = quat_rotate_inverse(quat, self.root_ang_vel_w)
         self.projected_gravity_b[:] = quat_rotate_inverse(quat, self.gravity_dir_w)
         self.heading_w[:] = yaw_from_quat(quat)
 

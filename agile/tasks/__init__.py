@@ -31,6 +31,7 @@ def load_cfgs(task: str):
 
 
 PRETRAINED_DIR = Path(__file__).resolve().parents[1] / "data" / "policy"
+PRETRAINED_CONDITIONS = PRETRAINED_DIR / "conditions.yaml"
 
 
 def pretrained_policy(task: str) -> Path | None:
@@ -41,10 +42,9 @@ def pretrained_policy(task: str) -> Path | None:
 
 def pretrained_policy_conditions(task: str) -> tuple[str, list[str]]:
     """(what the shipped policy was trained on, the config overrides `env.<field>=<value>` that give that
-    env) from agile/data/policy/<task>.yaml; ("", []) when it was trained on the task as registered."""
-    path = PRETRAINED_DIR / f"{task}.yaml"
-    if not path.is_file():
+    env) from agile/data/policy/conditions.yaml; ("", []) when it was trained on the task as registered."""
+    with open(PRETRAINED_CONDITIONS) as f:
+        spec = yaml.safe_load(f).get(task)
+    if spec is None:
         return "", []
-    with open(path) as f:
-        spec = yaml.safe_load(f)
     return spec["trained_on"], list(spec["env_overrides"])

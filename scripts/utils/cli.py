@@ -56,8 +56,8 @@ def shipped_policy(args) -> str | None:
         return None
     trained_on, overrides = agile.tasks.pretrained_policy_conditions(args.task)
     if overrides:
-        print(f"[agile] shipped policy: trained on {trained_on}; running it there ({len(overrides)} overrides "
-              f"from {path.with_suffix('.yaml').name}). Train on the task as registered for a policy of the full task.")
+        print(f"[agile] shipped policy: trained on {trained_on}; running it there ({len(overrides)} overrides from "
+              f"{agile.tasks.PRETRAINED_CONDITIONS.name}). Train on the task as registered for a policy of the full task.")
         args.overrides = [*overrides, *args.overrides]
     return str(path)
 

@@ -63,13 +63,11 @@ def contact_force_norm(env, sensor_cfg: SceneEntityCfg) -> torch.Tensor:
 
 def base_height_above_ground(env, asset_cfg: SceneEntityCfg = ROBOT, sensor_name: str | None = None) -> torch.Tensor:
     """(N,) root height [m] above z=0 without a sensor, above the mean terrain height under the height
-    scanner `sensor_name` with one (AGILE's terrain-adjusted base height)."""
+    scanner `sensor_name` with one (AGILE's terrain-adjusted base height; the env updates the scanner)."""
     height = env.scene[asset_cfg.name].root_pos_w[:, 2]
     if sensor_name is None:
         return height
-    scanner = env.scene[sensor_name]
-    scanner.update()
-    return height - scanner.hit_z_m.mean(dim=1)
+    return height - env.scene[sensor_name].hit_z_m.mean(dim=1)
 
 
 def height_scan(env, sensor_name: str, offset_m: float = 0.5,
@@ -77,6 +75,5 @@ def height_scan(env, sensor_name: str, offset_m: float = 0.5,
     """(N, R) sensor height minus the terrain height under each ray, minus `offset_m` (Isaac Lab's
     `height_scan`: about 0 for a base `offset_m` above flat ground), clipped to `clip_m` [m]."""
     scanner = env.scene[sensor_name]
-    scanner.update()
     scan = scanner.pos_w[:, 2:3] - scanner.hit_z_m - offset_m
     return scan.clamp(clip_m[0], clip_m[1])
