@@ -57,7 +57,8 @@ def shipped_policy(args) -> str | None:
     trained_on, overrides = agile.tasks.pretrained_policy_conditions(args.task)
     if overrides:
         print(f"[agile] shipped policy: trained on {trained_on}; running it there ({len(overrides)} overrides from "
-              f"{agile.tasks.PRETRAINED_CONDITIONS.name}). Train on the task as registered for a policy of the full task.")
+              f"{agile.tasks.PRETRAINED_CONDITIONS.name}). Train on the task as registered for a policy of the full "
+              "task.")
         args.overrides = [*overrides, *args.overrides]
     return str(path)
 
