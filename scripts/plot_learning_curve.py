@@ -1,6 +1,7 @@
 """Plot learning curves from RSL-RL tensorboard event files (needs matplotlib: pip install matplotlib).
 
     python scripts/plot_learning_curve.py --run "G1=logs/.../events.out.tfevents.*" --out docs/curve.png
+    python scripts/plot_learning_curve.py --run "G1=..." --tag Curriculum/terrain_levels --tag Train/mean_reward --out t.png
 
 A run given as several files (comma-separated) is concatenated in order, e.g. a run and its resumption.
 """
@@ -8,9 +9,12 @@ A run given as several files (comma-separated) is concatenated in order, e.g. a 
 from __future__ import annotations
 
 import argparse
+import sys
 
-TAGS = {"Train/mean_episode_length": "mean episode length [steps]", "Train/mean_reward": "mean reward",
-        "Episode_Reward/track_lin_vel_xy_exp": "linear velocity tracking reward"}
+DEFAULT_TAGS = ["Train/mean_episode_length", "Train/mean_reward", "Episode_Reward/track_lin_vel_xy_exp"]
+AXIS_LABELS = {"Train/mean_episode_length": "mean episode length [steps]", "Train/mean_reward": "mean reward",
+               "Episode_Reward/track_lin_vel_xy_exp": "linear velocity tracking reward",
+               "Curriculum/terrain_levels": "mean terrain level (row)"}
 
 
 def read_scalars(files: list[str], tag: str) -> tuple[list[int], list[float]]:
@@ -34,22 +38,28 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--run", action="append", required=True, help="LABEL=file[,file...]")
     parser.add_argument("--out", required=True, help="PNG file")
+    parser.add_argument("--tag", action="append", default=None,
+                        help=f"tensorboard scalar to plot, one panel each (default: {', '.join(DEFAULT_TAGS)})")
     parser.add_argument("--title", default="")
     args = parser.parse_args(argv)
+    tags = args.tag or DEFAULT_TAGS
 
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(TAGS), figsize=(5 * len(TAGS), 4))
+    fig, axes = plt.subplots(1, len(tags), figsize=(5 * len(tags), 4), squeeze=False)
+    axes = axes[0]
     for run in args.run:
         label, _, files = run.partition("=")
-        for ax, (tag, name) in zip(axes, TAGS.items()):
+        for ax, tag in zip(axes, tags):
             steps, values = read_scalars(files.split(","), tag)
+            if not steps:
+                sys.exit(f"error: no scalar '{tag}' in {files}")
             ax.plot(steps, values, label=label)
             ax.set_xlabel("PPO iteration")
-            ax.set_ylabel(name)
+            ax.set_ylabel(AXIS_LABELS.get(tag, tag))
     axes[0].legend()
     fig.suptitle(args.title)
     fig.tight_layout()

@@ -69,6 +69,11 @@ class PpoRunnerCfg:
     logger: str = "tensorboard"
     obs_groups: dict[str, list[str]] = field(default_factory=lambda: {"actor": ["policy"], "critic": ["critic"]})
     clip_actions: float | None = None
+    check_for_nan: bool = True
+    """rsl-rl checks every step's observations, rewards and dones for NaN (a host sync per check)."""
+    torch_compile_mode: str | None = None
+    """rsl-rl compiles the actor and critic with torch.compile in this mode ("default",
+    "max-autotune-no-cudagraphs"); None: eager."""
     algorithm: PpoAlgorithmCfg = field(default_factory=PpoAlgorithmCfg)
     actor: MlpModelCfg = field(default_factory=lambda: MlpModelCfg(distribution_cfg=DistributionCfg()))
     critic: MlpModelCfg = field(default_factory=MlpModelCfg)

@@ -3,9 +3,10 @@
 from agile.rl_env.rsl_rl import DistributionCfg, MlpModelCfg, PpoAlgorithmCfg, PpoRunnerCfg
 
 
-def velocity_ppo_runner_cfg(experiment_name: str, max_iterations: int) -> PpoRunnerCfg:
+def velocity_ppo_runner_cfg(experiment_name: str, max_iterations: int, init_action_std: float = 1.0) -> PpoRunnerCfg:
     """Actor [256, 256, 128], critic [512, 256, 128], ELU; adaptive lr 1e-3 (KL 0.01); entropy 0.005;
-    left-right mirrored samples added to every mini-batch (AGILE's `lr_mirror_T1/G1` augmentation)."""
+    left-right mirrored samples added to every mini-batch (AGILE's `lr_mirror_T1/G1` augmentation).
+    `init_action_std`: the policy's initial action noise, in units of the (scaled) action."""
     return PpoRunnerCfg(
         experiment_name=experiment_name,
         num_steps_per_env=24,
@@ -14,7 +15,7 @@ def velocity_ppo_runner_cfg(experiment_name: str, max_iterations: int) -> PpoRun
         # empirical observation normalisation: measured on G1, without it episodes plateau at 1.2 s (the
         # policy never balances); with it they reach the 30 s limit by iteration ~400 (docs/policies.md)
         actor=MlpModelCfg(hidden_dims=[256, 256, 128], activation="elu", obs_normalization=True,
-                          distribution_cfg=DistributionCfg(init_std=1.0)),
+                          distribution_cfg=DistributionCfg(init_std=init_action_std)),
         critic=MlpModelCfg(hidden_dims=[512, 256, 128], activation="elu", obs_normalization=True),
         algorithm=PpoAlgorithmCfg(learning_rate=1.0e-3, schedule="adaptive", desired_kl=0.01, gamma=0.99, lam=0.95,
                                   entropy_coef=0.005, num_learning_epochs=5, num_mini_batches=4,
