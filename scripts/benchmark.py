@@ -6,7 +6,8 @@
 For each env count, from one process on one device: raw physics (the captured decimation loop alone, no
 managers), env.step with random actions and its ratio to raw physics, PPO training (rollout + update) and
 its ratio, startup (gym.make to the first step done), device memory in use, and the share of the env
-step spent in the explicit actuators (raw physics with and without them). For a task on a terrain, the raw
+step spent in the explicit actuators (raw physics with and without them), and where a training iteration's
+time goes (env steps, policy inference and rollout storage, PPO update). For a task on a terrain, the raw
 physics of the same robot on flat ground (no terrain, contact sensor or height rays) is measured first in a
 separate world, and the env.step and training rates are also given as ratios to it.
 """
@@ -37,16 +38,39 @@ def device_memory_used_gb(device) -> float | None:
     return (total - free) / 1e9
 
 
-def time_physics(sim, decimation: int, steps: int) -> float:
-    """env-steps/s of the captured decimation loop alone (with the actuators), no managers."""
+def time_physics(sim, decimation: int, steps: int, chunk_steps: int = 10) -> float:
+    """env-steps/s of the captured decimation loop alone (with the actuators), no managers.
+
+    Without a policy the robots fall over, and fallen robots on a terrain touch many more triangles than
+    standing ones (the rate then depends on how long the measurement ran): every chunk of `chunk_steps`
+    env steps starts again from the state the world had at the call, restored outside the timed region."""
+    import torch
+
+    robot, all_worlds = sim.robot, torch.ones(sim.num_envs, dtype=torch.bool, device=sim.device)
+    start_state = [t.clone() for t in (robot.root_pose_w, robot.root_com_vel_w, robot.joint_pos, robot.joint_vel)]
+
+    def restart() -> None:
+        pose, vel, joint_pos, joint_vel = start_state
+        sim.reset_worlds(all_worlds)  # first: the solver's reset also puts the joint state back to the model's
+        robot.write_root_state(pose, vel, all_worlds)
+        robot.write_joint_state(joint_pos, joint_vel, all_worlds)
+        sim.forward()
+
     for _ in range(5):
         sim.step(decimation)
-    synchronize(sim.device)
-    start = time.perf_counter()
-    for _ in range(steps):
-        sim.step(decimation)
-    synchronize(sim.device)
-    return sim.num_envs * steps / (time.perf_counter() - start)
+    elapsed_s, done = 0.0, 0
+    while done < steps:
+        restart()
+        chunk = min(chunk_steps, steps - done)
+        synchronize(sim.device)
+        start = time.perf_counter()
+        for _ in range(chunk):
+            sim.step(decimation)
+        synchronize(sim.device)
+        elapsed_s += time.perf_counter() - start
+        done += chunk
+    restart()
+    return sim.num_envs * steps / elapsed_s
 
 
 def flat_raw_physics(env_cfg, device: str, steps: int) -> float:
@@ -60,6 +84,35 @@ def flat_raw_physics(env_cfg, device: str, steps: int) -> float:
     rate = time_physics(sim, env_cfg.decimation, steps)
     del sim
     return rate
+
+
+def time_training_phases(runner, env, iterations: int) -> dict:
+    """Seconds per PPO iteration in each phase of rsl-rl's loop (its rollout and update, without its NaN
+    checks and logging): env steps, policy inference with rollout storage, and the update. Each phase is
+    closed by a device synchronisation, so the sum is a little above a real iteration."""
+    import torch
+
+    alg, device = runner.alg, env.device
+    obs = env.get_observations()
+    seconds = {"env_steps_s": 0.0, "policy_and_storage_s": 0.0, "update_s": 0.0}
+
+    def timed(phase: str, func, *args):
+        synchronize(device)
+        start = time.perf_counter()
+        result = func(*args)
+        synchronize(device)
+        seconds[phase] += time.perf_counter() - start
+        return result
+
+    for _ in range(iterations):
+        with torch.inference_mode():
+            for _ in range(runner.cfg["num_steps_per_env"]):
+                actions = timed("policy_and_storage_s", alg.act, obs)
+                obs, rewards, dones, extras = timed("env_steps_s", env.step, actions)
+                timed("policy_and_storage_s", alg.process_env_step, obs, rewards, dones, extras)
+            timed("policy_and_storage_s", alg.compute_returns, obs)
+        timed("update_s", alg.update)
+    return {phase: value / iterations for phase, value in seconds.items()}
 
 
 def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterations: int) -> dict:
@@ -94,19 +147,23 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     full = n * steps / (time.perf_counter() - start)
 
     agent_cfg.max_iterations = train_iterations
-    runner = OnPolicyRunner(RslRlVecEnvWrapper(env), to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
+    wrapped = RslRlVecEnvWrapper(env)
+    runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
     runner.learn(1)  # warm-up: allocations, first update
     synchronize(env.device)
     start = time.perf_counter()
     runner.learn(train_iterations)
     synchronize(env.device)
-    train = n * agent_cfg.num_steps_per_env * train_iterations / (time.perf_counter() - start)
+    iteration_s = (time.perf_counter() - start) / train_iterations
+    train = n * agent_cfg.num_steps_per_env / iteration_s
+    phases = time_training_phases(runner, wrapped, train_iterations)
     memory = device_memory_used_gb(env.device)
     env.close()
     actuator_s = n / raw - n / raw_without_actuators  # per env step
     result = {"num_envs": n, "raw_physics": raw, "raw_physics_without_actuators": raw_without_actuators,
               "actuator_share_of_env_step": actuator_s / (n / full), "env_step": full, "env_step_ratio": full / raw,
-              "train": train, "train_ratio": train / raw, "startup_s": startup_s, "device_memory_gb": memory}
+              "train": train, "train_ratio": train / raw, "startup_s": startup_s, "device_memory_gb": memory,
+              "iteration_s": iteration_s, **{f"iteration_{phase}": value for phase, value in phases.items()}}
     if flat_raw is not None:
         result.update(flat_raw_physics=flat_raw, env_step_ratio_to_flat=full / flat_raw,
                       train_ratio_to_flat=train / flat_raw)
@@ -145,6 +202,12 @@ def main(argv=None) -> None:
         print(f"{r['num_envs']:>7} {r['raw_physics']:>12.0f} {r['env_step']:>10.0f} {r['env_step_ratio']:>6.2f} "
               f"{r['train']:>10.0f} {r['train_ratio']:>6.2f} {r['startup_s']:>9.1f} {mem:>7} "
               f"{100 * r['actuator_share_of_env_step']:>8.1f}%")
+    print("\nwhere a PPO iteration goes (s): the runner's iteration, then its phases timed one by one (env steps, "
+          "policy inference and rollout storage, PPO update)")
+    print(f"{'envs':>7} {'iteration':>10} {'env steps':>10} {'policy':>8} {'update':>8}")
+    for r in rows:
+        print(f"{r['num_envs']:>7} {r['iteration_s']:>10.3f} {r['iteration_env_steps_s']:>10.3f} "
+              f"{r['iteration_policy_and_storage_s']:>8.3f} {r['iteration_update_s']:>8.3f}")
     flat_rows = [r for r in rows if "flat_raw_physics" in r]
     if flat_rows:
         print("\nthe same robot on flat ground (raw physics) and the ratios to it")

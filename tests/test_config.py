@@ -76,3 +76,15 @@ def test_shipped_policy_conditions_still_name_real_fields(task):
     env_cfg, agent_cfg = agile.tasks.load_cfgs(task)
     apply_overrides({"env": env_cfg, "agent": agent_cfg}, overrides)  # a renamed field raises ConfigError
     assert env_cfg.sim.terrain is None and env_cfg.actions.random_pos is None
+
+
+def test_rsl_rl_runner_options_reach_the_runner_cfg():
+    import agile.tasks
+    from agile.rl_env.rsl_rl import to_rsl_rl_dict
+
+    _, agent_cfg = agile.tasks.load_cfgs("Velocity-T1-v0")
+    assert to_rsl_rl_dict(agent_cfg)["check_for_nan"] is True
+    apply_overrides({"agent": agent_cfg}, ["agent.check_for_nan=false", "agent.torch_compile_mode=default"])
+    train_cfg = to_rsl_rl_dict(agent_cfg)
+    assert train_cfg["check_for_nan"] is False and train_cfg["torch_compile_mode"] == "default"
+    assert train_cfg["actor"]["distribution_cfg"]["init_std"] == 0.3  # T1 starts with 0.3 rad of action noise
