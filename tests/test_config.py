@@ -88,3 +88,11 @@ def test_rsl_rl_runner_options_reach_the_runner_cfg():
     train_cfg = to_rsl_rl_dict(agent_cfg)
     assert train_cfg["check_for_nan"] is False and train_cfg["torch_compile_mode"] == "default"
     assert train_cfg["actor"]["distribution_cfg"]["init_std"] == 0.3  # T1 starts with 0.3 rad of action noise
+
+
+@pytest.mark.parametrize("task", ["Velocity-T1-v0", "Velocity-G1-History-v0"])
+def test_velocity_tasks_start_on_agile_terrain_rows(task):
+    import agile.tasks
+
+    env_cfg, _ = agile.tasks.load_cfgs(task)
+    assert env_cfg.sim.max_init_terrain_level == 1  # AGILE's velocity configs start every env on row 0 or 1

@@ -28,15 +28,15 @@ ROBOT_FRICTION_RANGE = (0.2, 1.0)
 
 def velocity_sim_cfg(terrain: TerrainGeneratorCfg, base_body: str, sensed_bodies: list[str],
                      max_contacts_per_world: int) -> SimCfg:
-    """200 Hz MuJoCo physics on a generated terrain with the terrain curriculum's start rows (0-5, Isaac Lab),
-    a contact sensor on the bodies the contact terms read, and the base-height ray.
+    """200 Hz MuJoCo physics on a generated terrain whose curriculum starts every env on row 0 or 1 (AGILE's
+    `max_init_terrain_level=1` for both velocity tasks; Isaac Lab's default is 5), a contact sensor on the bodies the contact terms read, and the base-height ray.
 
     Newton's height-field collision reports several contacts per foot collider and terrain triangle
     (including near, not yet touching ones): size `max_contacts_per_world` from a measurement."""
     return SimCfg(
         physics_dt_s=0.005, env_spacing_m=2.5,
         solver=SolverCfg(iterations=10, ls_iterations=20, njmax=300, nconmax=max_contacts_per_world),
-        terrain=terrain, max_init_terrain_level=5,
+        terrain=terrain, max_init_terrain_level=1,
         # a MuJoCo contact takes the larger friction of its two geoms: ground at the bottom of the robot's
         # randomised range lets each world's drawn foot friction decide (Isaac Lab multiplies by a ground of 1)
         ground_friction=ROBOT_FRICTION_RANGE[0],
