@@ -62,7 +62,8 @@ def settle(env, env_steps: int) -> None:
 
 def test_mass_randomisation_is_per_world_in_range_and_reaches_mujoco(env):
     robot = env.robot
-    mass0, inertia0 = robot.body_mass.clone(), robot.body_inertia.clone()
+    mass0, inertia0 = robot.default_body_mass.clone(), robot.body_inertia.clone()
+    torch.testing.assert_close(robot.body_mass, mass0)  # nothing randomised yet
     mdp.randomize_rigid_body_mass(env, all_envs(env), mass_distribution_params=(0.95, 1.05), operation="scale",
                                   asset_cfg=entity(env))
     scale = robot.body_mass / mass0
@@ -73,9 +74,10 @@ def test_mass_randomisation_is_per_world_in_range_and_reaches_mujoco(env):
     scaled = robot.body_mass.clone()
     mdp.randomize_rigid_body_mass(env, all_envs(env), mass_distribution_params=(-1.0, 3.0), operation="add",
                                   asset_cfg=entity(env, body_names="Trunk"))
-    added = robot.body_mass[:, 0] - scaled[:, 0]
+    added = robot.body_mass[:, 0] - mass0[:, 0]  # on the trunk's mass as built: its scale is replaced
     assert ((added >= -1.0 - 1e-5) & (added <= 3.0 + 1e-5)).all() and added.unique().numel() == NUM_ENVS
     torch.testing.assert_close(robot.body_mass[:, 1:], scaled[:, 1:])
+    torch.testing.assert_close(robot.body_inertia[:, 0], inertia0[:, 0] * (robot.body_mass[:, 0] / mass0[:, 0])[:, None, None])
 
     solver = env.sim.solver
     mj, newton_mass = mujoco_values_per_world(solver.mjw_model.body_mass, solver.mjc_body_to_newton,

@@ -26,6 +26,9 @@ def test_task_builds_steps_resets_and_trains(task, tmp_path):
         assert torch.isfinite(reward).all()
     obs, _ = env.reset()
     assert (env.episode_length_buf == 0).all()
+    if "random_pos" in env.action_manager.active_terms:  # AGILE: only arms and head move randomly
+        assert not [name for name in env.action_manager.get_term("random_pos").joint_names
+                    if "waist" in name.lower() or "hip" in name.lower() or "knee" in name.lower()]
 
     _, agent_cfg = agile.tasks.load_cfgs(task)
     agent_cfg.num_steps_per_env = 4

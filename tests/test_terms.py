@@ -57,7 +57,7 @@ def test_orientation_terms():
     # bodies tilted by 0.2 rad in roll: |g_xy| = sin(0.2)
     env.robot.body_pose_w[:, 1:, 3:7] = quat_from_euler_xyz(torch.tensor(0.2), torch.tensor(0.0), torch.tensor(0.0))
     feet = _entity(env, body_names="foot_.*")
-    expected = math.exp(-math.sin(0.2) ** 2 / 0.1**2)
+    expected = math.exp(-2 * math.sin(0.2) ** 2 / 0.1**2)  # two bodies' squared tilts add up in one kernel
     assert mdp.flat_body_orientation_exp(env, std_rad=0.1, asset_cfg=feet).item() == pytest.approx(expected, rel=1e-4)
     assert mdp.bad_orientation(env, limit_angle_rad=0.1, asset_cfg=feet).item()
     assert not mdp.bad_orientation(env, limit_angle_rad=0.3, asset_cfg=feet).item()
@@ -98,7 +98,12 @@ def test_feet_terms():
     feet = _entity(env, body_names=["foot_l", "foot_r"], preserve_order=True)
     assert mdp.feet_roll_l2(env, asset_cfg=feet).item() == pytest.approx(0.01, rel=1e-4)
     assert mdp.feet_yaw_diff_l2(env, asset_cfg=feet).item() == pytest.approx(0.16, rel=1e-4)
-    assert mdp.feet_yaw_mean_vs_base(env, asset_cfg=feet).item() == pytest.approx(0.01, rel=1e-4)
+    # feet yawed 0.3 and -0.1 against a base yawed 0.1: (0.2² + 0.2²); toes in or out cost the same
+    robot.body_pose_w[0, 0, 3:7] = quat_from_euler_xyz(torch.tensor(0.0), torch.tensor(0.0), torch.tensor(0.1))
+    base = _entity(env, body_names="base")
+    assert mdp.feet_yaw_mean_vs_base(env, feet_asset_cfg=feet, base_body_cfg=base).item() == pytest.approx(0.08, rel=1e-3)
+    with pytest.raises(ValueError, match="one base body"):
+        mdp.feet_yaw_mean_vs_base(env, feet_asset_cfg=feet, base_body_cfg=feet)
     assert mdp.feet_distance_from_ref(env, ref_distance_m=0.2, asset_cfg=feet).item() == pytest.approx(0.1, rel=1e-4)
 
 
@@ -116,3 +121,15 @@ def test_joint_pos_rel_selects_joints():
     env.robot.default_joint_pos[:] = torch.tensor([0.1, 0.1, 0.1])
     value = mdp.joint_pos_rel(env, asset_cfg=_entity(env, joint_names=["c", "a"], preserve_order=True))
     assert value.tolist()[0] == pytest.approx([0.6, 0.4])
+
+
+def test_body_acc_l2_adds_angular_acceleration_and_clamps():
+    env = FakeEnv(num_envs=2)
+    env.robot.body_lin_acc_w = torch.zeros(2, 3, 3)
+    env.robot.body_ang_acc_w = torch.zeros(2, 3, 3)
+    env.robot.body_lin_acc_w[0, 0] = torch.tensor([3.0, 4.0, 0.0])
+    env.robot.body_ang_acc_w[0, 0] = torch.tensor([0.0, 0.0, 2.0])
+    env.robot.body_ang_acc_w[0, 1] = torch.tensor([1.0, 0.0, 0.0])  # not selected
+    env.robot.body_lin_acc_w[1, 0] = torch.tensor([2000.0, 0.0, 0.0])  # a violent contact
+    base = _entity(env, body_names="base")
+    assert mdp.body_acc_l2(env, base).tolist() == pytest.approx([25.0 + 4.0, 1e6])

@@ -12,7 +12,8 @@ ARM_JOINTS = ".*Shoulder.*|.*Elbow.*"
 HEAD_JOINTS = ".*Head.*"
 WAIST_JOINTS = "Waist"
 
-# Menagerie "home" keyframe: arms down, knees slightly bent.
+# Menagerie "home" keyframe: arms down, knees slightly bent (AGILE: shoulder roll ∓1.3, elbow yaw ∓0.3,
+# z 0.71 m; the shipped T1 policy was trained on this one, docs/agile_differences.md).
 INIT_JOINT_POS = {
     "Left_Shoulder_Roll": -1.4, "Right_Shoulder_Roll": 1.4,
     "Left_Elbow_Yaw": -0.4, "Right_Elbow_Yaw": 0.4,

@@ -14,7 +14,9 @@ ARM_JOINTS = ".*_shoulder_.*_joint|.*_elbow_joint|.*_wrist_.*_joint"
 LOWER_BODY_JOINTS = [".*_hip_.*_joint", ".*_knee_joint", ".*_ankle_.*_joint"]
 """The 12 leg joints."""
 
-# BeyondMimic standing pose used by AGILE.
+# AGILE's BeyondMimic standing pose (its `G1_29DOF_BeyondMimic` robot). AGILE's velocity task uses another
+# robot config that stands straighter (hip -0.1, knee 0.3, ankle -0.2 rad, arms at 0, z 0.9 m); the shipped G1
+# policy was trained on this one (docs/agile_differences.md).
 INIT_JOINT_POS = {
     ".*_hip_pitch_joint": -0.312, ".*_knee_joint": 0.669, ".*_ankle_pitch_joint": -0.363,
     ".*_elbow_joint": 0.6, "left_shoulder_roll_joint": 0.2, "right_shoulder_roll_joint": -0.2,

@@ -92,6 +92,8 @@ class Articulation:
         self.nominal_joint_damping = self.joint_damping[0].clone()
         self.nominal_joint_friction = self.joint_friction[0].clone()
         self.nominal_joint_armature = self.joint_armature[0].clone()
+        self.default_body_mass = self.body_mass.clone()
+        """Body masses as built [kg]: what each mass randomisation draws from (Isaac Lab)."""
         self.default_root_pose = self.root_pose_w.clone()
         self.default_joint_pos = self.joint_pos.clone()
         self.default_joint_vel = torch.zeros_like(self.joint_vel)
@@ -105,7 +107,9 @@ class Articulation:
         self._prev_joint_vel = torch.zeros_like(self.joint_vel)
         self.body_lin_acc_w = torch.zeros(n, self.num_bodies, 3, device=self.device)
         """COM linear acceleration of each body [m/s²], world frame, by finite difference over the env step."""
-        self._prev_body_lin_vel_w = self.body_vel_w[..., :3].clone()
+        self.body_ang_acc_w = torch.zeros(n, self.num_bodies, 3, device=self.device)
+        """Angular acceleration of each body [rad/s²], world frame, by finite difference over the env step."""
+        self._prev_body_vel_w = self.body_vel_w.clone()
         self._body_acc_valid = torch.zeros(n, 1, 1, dtype=torch.bool, device=self.device)
         self.computed_torque = torch.zeros_like(self.joint_vel)
         """Joint torque the PD law asks for [N·m], before the effort limit."""
@@ -136,11 +140,11 @@ class Articulation:
         """Joint and body accelerations by finite difference over the env step; once per env step, after physics."""
         self.joint_acc[:] = (self.joint_vel - self._prev_joint_vel) / self._step_dt_s
         self._prev_joint_vel[:] = self.joint_vel
-        body_lin_vel_w = self.body_vel_w[..., :3]
         # a root-state write (reset, push) makes the previous velocity meaningless: report 0 for that step
-        body_lin_acc_w = (body_lin_vel_w - self._prev_body_lin_vel_w) / self._step_dt_s
-        self.body_lin_acc_w.copy_(torch.where(self._body_acc_valid, body_lin_acc_w, 0.0))
-        self._prev_body_lin_vel_w[:] = body_lin_vel_w
+        body_acc_w = torch.where(self._body_acc_valid, (self.body_vel_w - self._prev_body_vel_w) / self._step_dt_s, 0.0)
+        self.body_lin_acc_w.copy_(body_acc_w[..., :3])
+        self.body_ang_acc_w.copy_(body_acc_w[..., 3:])
+        self._prev_body_vel_w[:] = self.body_vel_w
         self._body_acc_valid.fill_(True)
 
     def set_body_mass(self, mass_kg: torch.Tensor, mask: torch.Tensor, scale_inertia: bool = True) -> None:

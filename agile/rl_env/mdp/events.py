@@ -148,13 +148,14 @@ def randomize_rigid_body_material(env, env_mask: torch.Tensor, static_friction_r
 def randomize_rigid_body_mass(env, env_mask: torch.Tensor, mass_distribution_params: tuple[float, float],
                               operation: str = "scale", recompute_inertia: bool = True,
                               asset_cfg: SceneEntityCfg = ROBOT) -> None:
-    """Body masses: scale by, add [kg] or set to [kg] a uniform sample per env and body. With
-    recompute_inertia the inertia scales with the mass (Isaac Lab)."""
+    """Body masses: scale by, add [kg] or set to [kg] a uniform sample per env and body, applied to the masses
+    as built, so a second event on a body replaces the first one's draw (Isaac Lab: AGILE's added trunk mass
+    supersedes its ×0.95-1.05 on the trunk). With recompute_inertia the inertia scales with the mass."""
     _forbid_capture("randomize_rigid_body_mass")
     robot = env.scene[asset_cfg.name]
     ids = asset_cfg.body_ids
     mass = robot.body_mass.clone()
-    selected = mass[:, ids]
+    selected = robot.default_body_mass[:, ids]
     sample = _uniform(mass_distribution_params, selected.shape, env.device)
     mass[:, ids] = _apply_operation(selected, sample, operation).clamp(min=MIN_BODY_MASS_KG)
     robot.set_body_mass(mass, env_mask, scale_inertia=recompute_inertia)

@@ -6,7 +6,7 @@ import torch
 
 from agile.rl_env.managers import SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
-from agile.utils.math import quat_rotate_inverse, wrap_to_pi, yaw_from_quat
+from agile.utils.math import quat_mul, quat_rotate_inverse, wrap_to_pi, yaw_from_quat
 
 ROBOT = SceneEntityCfg("robot")
 
@@ -59,9 +59,10 @@ def flat_orientation_l2(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
 
 
 def flat_body_orientation_exp(env, std_rad: float, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
-    """exp(-|g_xy|² / std²) averaged over bodies; |g_xy| ≈ tilt angle for small tilts."""
+    """exp(-Σ_bodies |g_xy|² / std²) (AGILE: the bodies' squared tilts add up inside one kernel);
+    |g_xy| ≈ tilt angle for small tilts."""
     g_xy = _body_projected_gravity(env, asset_cfg)[..., :2]
-    return torch.exp(-torch.sum(torch.square(g_xy), dim=-1) / std_rad**2).mean(dim=1)
+    return torch.exp(-torch.sum(torch.square(g_xy), dim=(1, 2)) / std_rad**2)
 
 
 def lin_vel_z_l2(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
@@ -73,10 +74,13 @@ def ang_vel_xy_l2(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
 
 
 def body_acc_l2(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
-    """Sum over the selected bodies (all if none selected) of |COM linear acceleration|² [m²/s⁴], the
-    acceleration being the velocity change over the env step (gravity not included: 0 at rest)."""
-    acc = env.scene[asset_cfg.name].body_lin_acc_w[:, asset_cfg.body_ids]
-    return torch.sum(torch.square(acc), dim=(1, 2))
+    """Sum over the selected bodies (all if none selected) of |COM linear acceleration|² [m²/s⁴] plus
+    |angular acceleration|² [rad²/s⁴], each the velocity change over the env step (gravity not included: 0 at
+    rest), clamped at 1e6 as AGILE does so that one violent contact cannot swamp the return."""
+    robot = env.scene[asset_cfg.name]
+    lin_acc, ang_acc = robot.body_lin_acc_w[:, asset_cfg.body_ids], robot.body_ang_acc_w[:, asset_cfg.body_ids]
+    return torch.clamp(torch.sum(torch.square(lin_acc), dim=(1, 2)) + torch.sum(torch.square(ang_acc), dim=(1, 2)),
+                       max=1e6)
 
 
 # -- joint regularisation ---------------------------------------------------------------------------
@@ -160,12 +164,17 @@ def feet_yaw_diff_l2(env, asset_cfg: SceneEntityCfg) -> torch.Tensor:
     return torch.square(wrap_to_pi(yaw[:, 1] - yaw[:, 0]))
 
 
-def feet_yaw_mean_vs_base(env, asset_cfg: SceneEntityCfg) -> torch.Tensor:
-    """Squared yaw of the feet's mean heading relative to the base heading."""
-    robot = env.scene[asset_cfg.name]
-    _, yaw = _feet_rpy(env, asset_cfg)
-    mean_yaw = yaw[:, 0] + 0.5 * wrap_to_pi(yaw[:, 1] - yaw[:, 0])
-    return torch.square(wrap_to_pi(mean_yaw - robot.heading_w))
+def feet_yaw_mean_vs_base(env, feet_asset_cfg: SceneEntityCfg, base_body_cfg: SceneEntityCfg) -> torch.Tensor:
+    """Sum over the feet of the squared yaw of each foot in the frame of one base body (AGILE's name; toes
+    turned in or out both cost, as does a base twisted against the feet) [rad²]."""
+    if len(base_body_cfg.body_ids) != 1:
+        raise ValueError(f"feet_yaw_mean_vs_base needs one base body, got {base_body_cfg.body_names}")
+    poses = env.scene[feet_asset_cfg.name].body_pose_w
+    feet_quat = poses[:, feet_asset_cfg.body_ids, 3:7]
+    base_quat = poses[:, base_body_cfg.body_ids, 3:7].expand_as(feet_quat)
+    base_inverse = torch.cat((-base_quat[..., :3], base_quat[..., 3:]), dim=-1)
+    yaw_in_base = yaw_from_quat(quat_mul(base_inverse, feet_quat))
+    return torch.sum(torch.square(yaw_in_base), dim=1)
 
 
 def feet_distance_from_ref(env, ref_distance_m: float, asset_cfg: SceneEntityCfg) -> torch.Tensor:

@@ -47,7 +47,7 @@ def velocity_sim_cfg(terrain: TerrainGeneratorCfg, base_body: str, sensed_bodies
 @configclass
 class VelocityEventsCfg:
     """Domain randomisation (startup: each world draws its own robot once), disturbances and resets.
-    Startup terms run in order on the current values: the base-mass offset adds to the scaled mass."""
+    Mass terms draw from the masses as built (Isaac Lab): the base-mass offset replaces the base's scale."""
 
     # -- startup
     physics_material = EventTerm(
@@ -107,11 +107,12 @@ def velocity_events_cfg(base_body: str, base_mass_add_kg: tuple[float, float],
     return cfg
 
 
-def random_upper_body_action_cfg(policy_joints: list[str]) -> mdp.RandomActionCfg:
-    """AGILE `random_pos`: every joint the policy does not control moves to random targets on trapezoidal
-    velocity profiles, new targets every 0.1-2.5 s, so the policy learns to walk with moving arms."""
+def random_upper_body_action_cfg(excluded_joints: list[str]) -> mdp.RandomActionCfg:
+    """AGILE `random_pos`: every joint but the legs and waist (`excluded_joints`) moves to random targets on
+    trapezoidal velocity profiles, new targets every 0.1-2.5 s, so the policy learns to walk with moving arms.
+    A waist joint the policy does not control keeps its default target."""
     return mdp.RandomActionCfg(
-        joint_names_exclude=policy_joints, sample_range_s=(0.1, 2.5),
+        joint_names_exclude=excluded_joints, sample_range_s=(0.1, 2.5),
         velocity_profile_cfg=mdp.TrapezoidalVelocityProfileCfg(
             acceleration_range=(1.0, 20.0), max_velocity_range=(10.0, 20.0), min_cruise_ratio=0.1,
             synchronize_joints=True, time_scaling_method="max_time"))
@@ -155,8 +156,9 @@ class VelocityCriticObsCfg(ObsGroup):
 
 @configclass
 class VelocityTerminationsCfg:
-    # orientation on the root: on G1 a torso limit (the torso tilts with the controlled waist joints) ended
-    # 100% of the early episodes and collapsed the policy's action noise (measured at iteration 50)
+    # orientation on the root, as in AGILE (its configs name Trunk / torso_link, but Isaac Lab's bad_orientation
+    # reads the root): on G1 a torso limit (the torso tilts with the waist joints) ended 100% of the early
+    # episodes and collapsed the policy's action noise (measured at iteration 50)
     time_out = DoneTerm(func=mdp.time_out, time_out=True)
     bad_orientation = DoneTerm(func=mdp.bad_orientation, params={"limit_angle_rad": math.radians(30.0)})
     illegal_ground_contact = DoneTerm(func=mdp.illegal_ground_contact,

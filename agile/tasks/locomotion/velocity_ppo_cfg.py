@@ -11,7 +11,7 @@ def velocity_ppo_runner_cfg(experiment_name: str, max_iterations: int, init_acti
         experiment_name=experiment_name,
         num_steps_per_env=24,
         max_iterations=max_iterations,
-        save_interval=500,
+        save_interval=250,  # AGILE
         # empirical observation normalisation: measured on G1, without it episodes plateau at 1.2 s (the
         # policy never balances); with it they reach the 30 s limit by iteration ~400 (docs/policies.md)
         actor=MlpModelCfg(hidden_dims=[256, 256, 128], activation="elu", obs_normalization=True,

@@ -2,8 +2,8 @@
 history, controlling its 12 leg joints plus waist roll and pitch (14).
 
 AGILE `velocity_history_env_cfg.py`: medium-rough terrain (small boxes, random bumps up to 20 cm, waves up
-to 25 cm) with the terrain curriculum, domain randomisation, pushes, and random arm and waist-yaw motions the
-policy must walk with.
+to 25 cm) with the terrain curriculum, domain randomisation, pushes, and random arm motions the policy must
+walk with (the waist yaw holds its default).
 """
 
 from __future__ import annotations
@@ -23,7 +23,6 @@ from agile.utils.config import configclass
 
 CONTROLLED_JOINTS = [*LOWER_BODY_JOINTS, "waist_roll_joint", "waist_pitch_joint"]
 CONTROLLED = SceneEntityCfg("robot", joint_names=CONTROLLED_JOINTS)
-LEGS = SceneEntityCfg("robot", joint_names=LOWER_BODY_JOINTS)
 FOOT_BODIES = ["left_ankle_roll_link", "right_ankle_roll_link"]
 FEET = SceneEntityCfg("robot", body_names=FOOT_BODIES, preserve_order=True)
 FEET_CONTACT = SceneEntityCfg(CONTACT_SENSOR, body_names=FOOT_BODIES, preserve_order=True)
@@ -39,7 +38,7 @@ class CommandsCfg:
 class ActionsCfg:
     joint_pos = mdp.JointPositionActionCfg(joint_names=CONTROLLED_JOINTS, scale=0.5, use_default_offset=True,
                                            clip=(-10.0, 10.0))
-    random_pos = random_upper_body_action_cfg(policy_joints=CONTROLLED_JOINTS)
+    random_pos = random_upper_body_action_cfg(excluded_joints=[*CONTROLLED_JOINTS, "waist_yaw_joint"])
 
 
 @configclass
@@ -68,15 +67,16 @@ class RewardsCfg:
                        params={"asset_cfg": SceneEntityCfg("robot", body_names="pelvis")})
     jumping = RewTerm(func=mdp.jumping, weight=-20.0, params={"sensor_cfg": FEET_CONTACT, "force_threshold_n": 10.0})
     # -- joints
-    torques = RewTerm(func=mdp.joint_torques_l2, weight=-5.0e-5, params={"asset_cfg": LEGS})
+    torques = RewTerm(func=mdp.joint_torques_l2, weight=-5.0e-5, params={"asset_cfg": CONTROLLED})
     ankle_torques = RewTerm(func=mdp.joint_torques_l2, weight=-1.0e-4,
                             params={"asset_cfg": SceneEntityCfg("robot", joint_names=".*_ankle_.*_joint")})
     ankle_roll_torques = RewTerm(func=mdp.joint_torques_l2, weight=-1.0e-3,
                                  params={"asset_cfg": SceneEntityCfg("robot", joint_names=".*_ankle_roll_joint")})
-    dof_vel = RewTerm(func=mdp.joint_vel_l2, weight=-1.0e-4)
-    dof_pos_limits = RewTerm(func=mdp.joint_pos_limits, weight=-0.5)
-    dof_vel_limits = RewTerm(func=mdp.joint_vel_limits, weight=-0.5, params={"soft_ratio": 0.9})
-    torque_limits = RewTerm(func=mdp.applied_torque_limits, weight=-0.005)
+    # AGILE's G1 regularises only the joints the policy drives (T1's covers all joints)
+    dof_vel = RewTerm(func=mdp.joint_vel_l2, weight=-1.0e-4, params={"asset_cfg": CONTROLLED})
+    dof_pos_limits = RewTerm(func=mdp.joint_pos_limits, weight=-0.5, params={"asset_cfg": CONTROLLED})
+    dof_vel_limits = RewTerm(func=mdp.joint_vel_limits, weight=-0.5, params={"asset_cfg": CONTROLLED, "soft_ratio": 0.9})
+    torque_limits = RewTerm(func=mdp.applied_torque_limits, weight=-0.005, params={"asset_cfg": CONTROLLED})
     # -- actions
     action_rate = RewTerm(func=mdp.action_rate_l2, weight=-0.25)
     action_rate_rate = RewTerm(func=mdp.action_rate_rate_l2, weight=-0.025)
@@ -84,7 +84,8 @@ class RewardsCfg:
     feet_slip = RewTerm(func=mdp.feet_slip, weight=-0.05, params={"sensor_cfg": FEET_CONTACT, "asset_cfg": FEET})
     feet_roll = RewTerm(func=mdp.feet_roll_l2, weight=-0.05, params={"asset_cfg": FEET})
     feet_yaw_diff = RewTerm(func=mdp.feet_yaw_diff_l2, weight=-0.1, params={"asset_cfg": FEET})
-    feet_yaw_mean = RewTerm(func=mdp.feet_yaw_mean_vs_base, weight=-2.0, params={"asset_cfg": FEET})
+    feet_yaw_mean = RewTerm(func=mdp.feet_yaw_mean_vs_base, weight=-2.0,
+                            params={"feet_asset_cfg": FEET, "base_body_cfg": SceneEntityCfg("robot", body_names="pelvis")})
     feet_distance = RewTerm(func=mdp.feet_distance_from_ref, weight=-0.1,
                             params={"asset_cfg": FEET, "ref_distance_m": 0.2})
 

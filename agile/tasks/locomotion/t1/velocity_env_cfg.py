@@ -35,7 +35,7 @@ class CommandsCfg:
 class ActionsCfg:
     joint_pos = mdp.JointPositionActionCfg(joint_names=[LEG_JOINTS], scale=1.0, use_default_offset=True,
                                            clip=(-1.0, 1.0))
-    random_pos = random_upper_body_action_cfg(policy_joints=[LEG_JOINTS, "Waist"])
+    random_pos = random_upper_body_action_cfg(excluded_joints=[LEG_JOINTS, "Waist"])
 
 
 @configclass
@@ -80,7 +80,8 @@ class RewardsCfg:
     feet_slip = RewTerm(func=mdp.feet_slip, weight=-0.1, params={"sensor_cfg": FEET_CONTACT, "asset_cfg": FEET})
     feet_roll = RewTerm(func=mdp.feet_roll_l2, weight=-0.1, params={"asset_cfg": FEET})
     feet_yaw_diff = RewTerm(func=mdp.feet_yaw_diff_l2, weight=-0.2, params={"asset_cfg": FEET})
-    feet_yaw_mean = RewTerm(func=mdp.feet_yaw_mean_vs_base, weight=-4.0, params={"asset_cfg": FEET})
+    feet_yaw_mean = RewTerm(func=mdp.feet_yaw_mean_vs_base, weight=-4.0,
+                            params={"feet_asset_cfg": FEET, "base_body_cfg": SceneEntityCfg("robot", body_names="Waist")})
     feet_distance = RewTerm(func=mdp.feet_distance_from_ref, weight=-0.2,
                             params={"asset_cfg": FEET, "ref_distance_m": 0.2})
 
