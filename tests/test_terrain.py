@@ -99,13 +99,17 @@ def small_cfg(**kw) -> TerrainGeneratorCfg:
 def test_layout_rows_are_difficulty_columns_are_types():
     data = generate_terrain(small_cfg())
     assert data.heights_m.shape == (3 * 40 + 2 * 10 + 1, 4 * 40 + 2 * 10 + 1)
-    assert np.allclose(data.cell_difficulty[:, 0], [0.0, 0.5, 1.0])
+    # row r: difficulties in [r, r + 1) / 3, different along the row
+    rows = np.arange(3)[:, None]
+    assert ((data.cell_difficulty >= rows / 3) & (data.cell_difficulty < (rows + 1) / 3)).all()
+    assert np.unique(data.cell_difficulty[2]).size == 4
     assert data.cell_types[0].tolist() == [0, 1, 1, 2] and (data.cell_types == data.cell_types[0]).all()
     # the grid is centred, the cells' origins at their centres, on the highest point of the central 1 m
     assert np.allclose(data.cell_origins_m[:, :, 0].mean(), 0.0) and np.allclose(data.cell_origins_m[:, :, 1].mean(), 0)
-    assert data.cell_origins_m[2, 3, 2] == pytest.approx(2 * 0.23)  # stairs at difficulty 1: two steps of 0.23 m
+    step_m = 0.05 + data.cell_difficulty[2, 3] * (0.23 - 0.05)  # the stairs' step height at that difficulty
+    assert step_m > 0.16 and data.cell_origins_m[2, 3, 2] == pytest.approx(2 * step_m, abs=1e-6)  # two steps up
     assert data.cell_origins_m[0, 0, 2] == 0.0
-    assert data.height_at(*data.cell_origins_m[2, 3, :2]) == pytest.approx(0.46)
+    assert data.height_at(*data.cell_origins_m[2, 3, :2]) == pytest.approx(2 * step_m, abs=1e-6)
     assert data.height_at(100.0, 100.0) == 0.0  # flat border outside
 
 

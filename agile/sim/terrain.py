@@ -25,7 +25,7 @@ import numpy as np
 
 from agile.utils.config import configclass, to_dict
 
-CACHE_VERSION = 1
+CACHE_VERSION = 2
 """Bump when the meaning of a config field changes, so old cache files are not reused."""
 
 ORIGIN_PATCH_M = 1.0
@@ -206,8 +206,9 @@ class TerrainData:
 
 
 def _cell_layout(cfg: TerrainGeneratorCfg, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """(types, difficulty) per cell. Curriculum: row r has difficulty r / (num_rows - 1) and column c the type
-    whose cumulative proportion first exceeds c / num_cols (Isaac Lab's rule)."""
+    """(types, difficulty) per cell. Curriculum (Isaac Lab's rules): row r's cells have difficulties drawn in
+    [r, r + 1) / num_rows, so that columns of one type differ, and column c the type whose cumulative
+    proportion first exceeds c / num_cols."""
     proportions = np.array([s.proportion for s in cfg.sub_terrains.values()], dtype=np.float64)
     if (proportions < 0).any() or proportions.sum() <= 0:
         raise ValueError(f"sub-terrain proportions must be >= 0 with a positive sum, got {proportions.tolist()}")
@@ -217,8 +218,7 @@ def _cell_layout(cfg: TerrainGeneratorCfg, rng: np.random.Generator) -> tuple[np
         cumulative = np.cumsum(proportions)
         col_types = [int(np.argmax(c / cfg.num_cols + 0.001 < cumulative)) for c in range(cfg.num_cols)]
         types = np.broadcast_to(np.array(col_types), shape).copy()
-        levels = np.arange(cfg.num_rows) / max(cfg.num_rows - 1, 1)
-        difficulty = np.broadcast_to(levels[:, None], shape).copy()
+        difficulty = (np.arange(cfg.num_rows)[:, None] + rng.uniform(0.0, 1.0, size=shape)) / cfg.num_rows
     else:
         types = rng.choice(len(proportions), size=shape, p=proportions)
         difficulty = rng.uniform(0.0, 1.0, size=shape)
