@@ -3,6 +3,7 @@
     python scripts/train.py --task Velocity-T1-v0 --num_envs 4096 --max_iterations 3000
     python scripts/train.py --task Velocity-T1-v0 --resume            # newest checkpoint of the experiment
     python scripts/train.py --task Velocity-G1-History-v0 --init_policy agile/data/policy/Velocity-G1-History-v0.pt
+    python scripts/train.py --task Velocity-T1-v0 --init_policy agile/data/policy/Velocity-T1-v0.pt --init_action_std 0.3
     python scripts/train.py --task Velocity-T1-v0 agent.algorithm.learning_rate=5e-4 env.episode_length_s=20
 
 Checkpoints, tensorboard logs and the resolved configs go to logs/rsl_rl/<experiment>/<time>_<run>/.
@@ -11,6 +12,7 @@ Checkpoints, tensorboard logs and the resolved configs go to logs/rsl_rl/<experi
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 
@@ -56,6 +58,27 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
     video_env.close()
 
 
+def initial_actor_checkpoint(path: str, log_dir: str, action_std: float | None) -> str:
+    """The --init_policy checkpoint copied into the run's folder as init_policy.pt (where the run started stays
+    with it), with the actor's action noise set to `action_std` when given."""
+    import torch
+
+    checkpoint = torch.load(path, map_location="cpu", weights_only=False)
+    if action_std is not None:
+        actor = checkpoint["actor_state_dict"]
+        if "distribution.std_param" in actor:
+            actor["distribution.std_param"] = torch.full_like(actor["distribution.std_param"], action_std)
+        elif "distribution.log_std_param" in actor:
+            actor["distribution.log_std_param"] = torch.full_like(actor["distribution.log_std_param"],
+                                                                  math.log(action_std))
+        else:
+            sys.exit(f"error: --init_action_std: the actor in {path} has no state-independent std to reset")
+        print(f"[agile] action noise reset to std {action_std}")
+    start = os.path.join(log_dir, "init_policy.pt")
+    torch.save(checkpoint, start)
+    return start
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     cli.add_common_args(parser)
@@ -65,6 +88,9 @@ def main(argv=None) -> None:
     parser.add_argument("--init_policy", default=None,
                         help="start a new run from this checkpoint's actor weights only (fresh critic, optimizer and "
                         "iteration count), e.g. a shipped policy to fine-tune on a changed task")
+    parser.add_argument("--init_action_std", type=float, default=None, metavar="STD",
+                        help="with --init_policy: reset the actor's action noise to STD (in action units), e.g. to "
+                        "explore again when fine-tuning a converged policy on a harder task")
     parser.add_argument("--logger", choices=["tensorboard", "wandb", "neptune"], default=None)
     parser.add_argument("--run_name", default=None, help="suffix of the log folder")
     parser.add_argument("--log_root", default=os.path.join("logs", "rsl_rl"))
@@ -90,6 +116,9 @@ def main(argv=None) -> None:
         sys.exit("error: --init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
     if args.init_policy and not os.path.isfile(args.init_policy):
         sys.exit(f"error: --init_policy file not found: {args.init_policy}")
+    if args.init_action_std is not None and (not args.init_policy or not args.init_action_std > 0):
+        sys.exit("error: --init_action_std needs --init_policy and a positive value "
+                 "(a new run's initial std is agent.actor.distribution_cfg.init_std)")
 
     from rsl_rl.runners import OnPolicyRunner
 
@@ -107,7 +136,8 @@ def main(argv=None) -> None:
         runner.load(resume_path)
     if args.init_policy:
         print(f"[agile] actor initialised from {args.init_policy}")
-        runner.load(args.init_policy, load_cfg={"actor": True}, map_location=str(env.device))
+        start = initial_actor_checkpoint(args.init_policy, log_dir, args.init_action_std)
+        runner.load(start, load_cfg={"actor": True}, map_location=str(env.device))
     if args.video:
         learn_with_clips(runner, args, env_cfg, device, log_dir, agent_cfg.max_iterations)
     else:

@@ -56,8 +56,28 @@ def test_train_init_policy_starts_from_the_shipped_actor(tmp_path):
     shipped_std = torch.load(shipped, weights_only=False)["actor_state_dict"]["distribution.std_param"]
     assert (shipped_std < 0.5).all()  # a fresh actor starts at 1.0: the weights did come from the file
     assert torch.allclose(trained["actor_state_dict"]["distribution.std_param"], shipped_std, atol=0.02)
+    assert (checkpoint.parent / "init_policy.pt").is_file()  # where the run started stays with it
     code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--device", "cpu", "--init_policy", "nope.pt")
     assert code != 0 and "--init_policy file not found" in out
+
+
+def test_train_init_action_std_resets_the_loaded_actors_noise(tmp_path):
+    import torch
+
+    shipped = ROOT / "agile" / "data" / "policy" / "Velocity-T1-v0.pt"
+    code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "1",
+                    "--device", "cpu", "--log_root", str(tmp_path), "--init_policy", str(shipped),
+                    "--init_action_std", "0.4", "agent.num_steps_per_env=4")
+    assert code == 0 and "action noise reset to std 0.4" in out, out
+    run_dir = next((tmp_path / "velocity_t1").iterdir())
+    trained = torch.load(run_dir / "model_0.pt", weights_only=False)["actor_state_dict"]
+    shipped_actor = torch.load(shipped, weights_only=False)["actor_state_dict"]
+    assert torch.allclose(trained["distribution.std_param"], torch.full((12,), 0.4), atol=0.02)
+    # the rest of the actor is the shipped one (one update moves it a little)
+    assert torch.allclose(trained["mlp.0.weight"], shipped_actor["mlp.0.weight"], atol=0.05)
+    for bad in (["--init_action_std", "0.3"], ["--init_policy", str(shipped), "--init_action_std", "-1"]):
+        code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--device", "cpu", *bad)
+        assert code != 0 and "--init_action_std needs --init_policy and a positive value" in out, out
 
 
 def test_train_rejects_bad_input(tmp_path):
