@@ -75,6 +75,21 @@ def test_random_uniform_amplitude_grows_with_difficulty(difficulty):
         assert np.allclose(levels, np.round(levels), atol=1e-6)
 
 
+def test_random_uniform_sample_spacing_draws_heights_on_a_coarser_grid():
+    sub = RandomUniformTerrainCfg(noise_range_m=(0.0, 0.10), noise_step_m=0.01, border_width_m=0.0,
+                                  sample_spacing_m=0.4)
+    _, _, z = cell(sub, 1.0)  # samples every 0.1 m from -2.0 m (the cell's edge, held at 0)
+    z = z[4:, 4:]  # from -1.6 m: every 4th sample is a drawn height
+    drawn = z[::4, ::4]
+    assert np.allclose(drawn / 0.01, np.round(drawn / 0.01), atol=1e-6) and np.unique(drawn).size > 5
+    # in between, the surface is linear: a sample halfway between two drawn heights is their mean
+    torch.testing.assert_close(torch.from_numpy(z[2::4, ::4][:-1]), torch.from_numpy((drawn[:-1] + drawn[1:]) / 2))
+    torch.testing.assert_close(torch.from_numpy(z[::4, 1::4][:, :-1]),
+                               torch.from_numpy(0.75 * drawn[:, :-1] + 0.25 * drawn[:, 1:]))
+    # slopes between neighbouring samples are a quarter of drawing every sample's height
+    assert np.abs(np.diff(z, axis=0)).max() <= 0.10 / 4 + 1e-9
+
+
 def test_wave_amplitude_and_boxes_bound():
     _, _, z = cell(WaveTerrainCfg(amplitude_range_m=(0.0, 0.2), num_waves=2), 0.5)
     assert np.abs(z).max() <= 0.1 + 1e-9 and np.abs(z).max() > 0.09

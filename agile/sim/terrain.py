@@ -61,20 +61,38 @@ class FlatTerrainCfg(SubTerrainCfg):
 
 @configclass
 class RandomUniformTerrainCfg(SubTerrainCfg):
-    """AGILE's `HfRandomUniformTerrainDifficultyCfg`: heights drawn per sample from
-    {min, min + step, ..., max} with the whole range (and the step) scaled by the difficulty."""
+    """AGILE's `HfRandomUniformTerrainDifficultyCfg`: heights drawn from {min, min + step, ..., max} with the
+    whole range (and the step) scaled by the difficulty, one per sample or one every `sample_spacing_m` with
+    the surface linear in between."""
 
     noise_range_m: tuple[float, float] = (0.02, 0.10)
     noise_step_m: float = 0.02
     min_step_m: float = 0.005
     """Smallest height step (Isaac Lab's vertical_scale): keeps the step non-zero at difficulty 0."""
+    sample_spacing_m: float | None = None
+    """Distance between drawn heights (Isaac Lab's `downsampled_scale`); None: every sample. AGILE's rough
+    presets draw every 0.4 m (their height-field spacing); drawn every 0.1 m the same heights make 4x steeper
+    bumps."""
 
     def heights(self, difficulty, x_m, y_m, size_m, rng):
         low, high = self.noise_range_m[0] * difficulty, self.noise_range_m[1] * difficulty
         step = max(self.noise_step_m * difficulty, self.min_step_m)
         levels = np.arange(low, high + step / 2, step)
-        z = rng.choice(levels, size=x_m.shape)
+        if self.sample_spacing_m is None:
+            z = rng.choice(levels, size=x_m.shape)
+        else:
+            z = _bilinear(rng.choice(levels, size=(round(size_m / self.sample_spacing_m) + 1,) * 2),
+                          (x_m + size_m / 2) / self.sample_spacing_m, (y_m + size_m / 2) / self.sample_spacing_m)
         return np.where(self._inside(x_m, y_m, size_m), z, 0.0)
+
+
+def _bilinear(grid: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """`grid` (n, n) sampled at fractional indices (u, v), linear between its points."""
+    i = np.clip(np.floor(u).astype(int), 0, grid.shape[0] - 2)
+    j = np.clip(np.floor(v).astype(int), 0, grid.shape[1] - 2)
+    fu, fv = u - i, v - j
+    return ((1 - fu) * (1 - fv) * grid[i, j] + fu * (1 - fv) * grid[i + 1, j]
+            + (1 - fu) * fv * grid[i, j + 1] + fu * fv * grid[i + 1, j + 1])
 
 
 @configclass
@@ -309,7 +327,8 @@ def load_or_generate_terrain(cfg: TerrainGeneratorCfg, use_cache: bool = True) -
 # -- presets (AGILE terrains/terrains.py; sub-terrain values from AGILE unless noted) ------------------
 # AGILE builds its boxes as meshes and uses a 100 m border with 0.4 m height-field samples. Here everything
 # is one height field with Isaac Lab's 0.1 m samples (AGILE's 0.15 m, 0-2 cm boxes become bumps one or two
-# samples wide) and Isaac Lab's 20 m border, more than an env walks in an episode.
+# samples wide) and Isaac Lab's 20 m border, more than an env walks in an episode. The random bumps keep
+# AGILE's 0.4 m between drawn heights (`sample_spacing_m`), so their slopes are AGILE's.
 
 LESS_ROUGH_TERRAIN_CFG = TerrainGeneratorCfg(
     size_m=8.0, num_rows=20, num_cols=16, horizontal_scale_m=0.1,
@@ -317,7 +336,7 @@ LESS_ROUGH_TERRAIN_CFG = TerrainGeneratorCfg(
         "boxes_small": BoxGridTerrainCfg(proportion=0.2, grid_width_m=0.15, grid_height_range_m=(0.0, 0.02),
                                          platform_width_m=0.1),
         "random_rough_small": RandomUniformTerrainCfg(proportion=1.0, noise_range_m=(0.01, 0.1), noise_step_m=0.1,
-                                                      border_width_m=0.4),
+                                                      border_width_m=0.4, sample_spacing_m=0.4),
     },
 )
 
@@ -327,7 +346,7 @@ MEDIUM_ROUGH_TERRAIN_CFG = TerrainGeneratorCfg(
         "boxes_small": BoxGridTerrainCfg(proportion=0.2, grid_width_m=0.15, grid_height_range_m=(0.0, 0.04),
                                          platform_width_m=0.1),
         "random_rough_small": RandomUniformTerrainCfg(proportion=0.2, noise_range_m=(0.01, 0.2), noise_step_m=0.1,
-                                                      border_width_m=0.4),
+                                                      border_width_m=0.4, sample_spacing_m=0.4),
         "wave_small": WaveTerrainCfg(proportion=0.2, amplitude_range_m=(0.01, 0.25), num_waves=3),
     },
 )
