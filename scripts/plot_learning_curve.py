@@ -1,7 +1,8 @@
 """Plot learning curves from RSL-RL tensorboard event files (needs matplotlib: pip install matplotlib).
 
     python scripts/plot_learning_curve.py --run "G1=logs/.../events.out.tfevents.*" --out docs/curve.png
-    python scripts/plot_learning_curve.py --run "G1=..." --tag Curriculum/terrain_levels --tag Train/mean_reward --out t.png
+    python scripts/plot_learning_curve.py --run "G1=..." --tag Curriculum/terrain_levels --tag Train/mean_reward \
+        --out t.png
 
 A run given as several files (comma-separated) is concatenated in order, e.g. a run and its resumption.
 """

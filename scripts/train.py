@@ -3,7 +3,8 @@
     python scripts/train.py --task Velocity-T1-v0 --num_envs 4096 --max_iterations 3000
     python scripts/train.py --task Velocity-T1-v0 --resume            # newest checkpoint of the experiment
     python scripts/train.py --task Velocity-G1-History-v0 --init_policy agile/data/policy/Velocity-G1-History-v0.pt
-    python scripts/train.py --task Velocity-T1-v0 --init_policy agile/data/policy/Velocity-T1-v0.pt --init_action_std 0.3
+    python scripts/train.py --task Velocity-T1-v0 --init_policy agile/data/policy/Velocity-T1-v0.pt \
+        --init_action_std 0.3
     python scripts/train.py --task Velocity-T1-v0 agent.algorithm.learning_rate=5e-4 env.episode_length_s=20
 
 Checkpoints, tensorboard logs and the resolved configs go to logs/rsl_rl/<experiment>/<time>_<run>/.

@@ -77,7 +77,8 @@ def test_mass_randomisation_is_per_world_in_range_and_reaches_mujoco(env):
     added = robot.body_mass[:, 0] - mass0[:, 0]  # on the trunk's mass as built: its scale is replaced
     assert ((added >= -1.0 - 1e-5) & (added <= 3.0 + 1e-5)).all() and added.unique().numel() == NUM_ENVS
     torch.testing.assert_close(robot.body_mass[:, 1:], scaled[:, 1:])
-    torch.testing.assert_close(robot.body_inertia[:, 0], inertia0[:, 0] * (robot.body_mass[:, 0] / mass0[:, 0])[:, None, None])
+    ratio = robot.body_mass[:, 0] / mass0[:, 0]
+    torch.testing.assert_close(robot.body_inertia[:, 0], inertia0[:, 0] * ratio[:, None, None])
 
     solver = env.sim.solver
     mj, newton_mass = mujoco_values_per_world(solver.mjw_model.body_mass, solver.mjc_body_to_newton,

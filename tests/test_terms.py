@@ -101,7 +101,8 @@ def test_feet_terms():
     # feet yawed 0.3 and -0.1 against a base yawed 0.1: (0.2² + 0.2²); toes in or out cost the same
     robot.body_pose_w[0, 0, 3:7] = quat_from_euler_xyz(torch.tensor(0.0), torch.tensor(0.0), torch.tensor(0.1))
     base = _entity(env, body_names="base")
-    assert mdp.feet_yaw_mean_vs_base(env, feet_asset_cfg=feet, base_body_cfg=base).item() == pytest.approx(0.08, rel=1e-3)
+    yaw_cost = mdp.feet_yaw_mean_vs_base(env, feet_asset_cfg=feet, base_body_cfg=base)
+    assert yaw_cost.item() == pytest.approx(0.08, rel=1e-3)
     with pytest.raises(ValueError, match="one base body"):
         mdp.feet_yaw_mean_vs_base(env, feet_asset_cfg=feet, base_body_cfg=feet)
     assert mdp.feet_distance_from_ref(env, ref_distance_m=0.2, asset_cfg=feet).item() == pytest.approx(0.1, rel=1e-4)

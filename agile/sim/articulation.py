@@ -105,9 +105,10 @@ class Articulation:
         self.heading_w = torch.zeros(n, device=self.device)
         self.joint_acc = torch.zeros_like(self.joint_vel)
         self._prev_joint_vel = torch.zeros_like(self.joint_vel)
-        self.body_lin_acc_w = torch.zeros(n, self.num_bodies, 3, device=self.device)
+        self._body_acc_w = torch.zeros(n, self.num_bodies, 6, device=self.device)
+        self.body_lin_acc_w = self._body_acc_w[..., :3]
         """COM linear acceleration of each body [m/s²], world frame, by finite difference over the env step."""
-        self.body_ang_acc_w = torch.zeros(n, self.num_bodies, 3, device=self.device)
+        self.body_ang_acc_w = self._body_acc_w[..., 3:]
         """Angular acceleration of each body [rad/s²], world frame, by finite difference over the env step."""
         self._prev_body_vel_w = self.body_vel_w.clone()
         self._body_acc_valid = torch.zeros(n, 1, 1, dtype=torch.bool, device=self.device)
@@ -141,9 +142,8 @@ class Articulation:
         self.joint_acc[:] = (self.joint_vel - self._prev_joint_vel) / self._step_dt_s
         self._prev_joint_vel[:] = self.joint_vel
         # a root-state write (reset, push) makes the previous velocity meaningless: report 0 for that step
-        body_acc_w = torch.where(self._body_acc_valid, (self.body_vel_w - self._prev_body_vel_w) / self._step_dt_s, 0.0)
-        self.body_lin_acc_w.copy_(body_acc_w[..., :3])
-        self.body_ang_acc_w.copy_(body_acc_w[..., 3:])
+        body_acc_w = (self.body_vel_w - self._prev_body_vel_w) / self._step_dt_s
+        self._body_acc_w.copy_(torch.where(self._body_acc_valid, body_acc_w, 0.0))
         self._prev_body_vel_w[:] = self.body_vel_w
         self._body_acc_valid.fill_(True)
 

@@ -23,6 +23,11 @@ def quat_rotate_inverse(q_xyzw: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
     return v - w * t + torch.cross(q_vec, t, dim=-1)
 
 
+def quat_conjugate(q_xyzw: torch.Tensor) -> torch.Tensor:
+    """The inverse rotation of a unit quaternion."""
+    return torch.cat((-q_xyzw[..., :3], q_xyzw[..., 3:]), dim=-1)
+
+
 def quat_mul(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     ax, ay, az, aw = a.unbind(-1)
     bx, by, bz, bw = b.unbind(-1)

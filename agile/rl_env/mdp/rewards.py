@@ -6,7 +6,7 @@ import torch
 
 from agile.rl_env.managers import SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
-from agile.utils.math import quat_mul, quat_rotate_inverse, wrap_to_pi, yaw_from_quat
+from agile.utils.math import quat_conjugate, quat_mul, quat_rotate_inverse, wrap_to_pi, yaw_from_quat
 
 ROBOT = SceneEntityCfg("robot")
 
@@ -78,9 +78,9 @@ def body_acc_l2(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
     |angular acceleration|² [rad²/s⁴], each the velocity change over the env step (gravity not included: 0 at
     rest), clamped at 1e6 as AGILE does so that one violent contact cannot swamp the return."""
     robot = env.scene[asset_cfg.name]
-    lin_acc, ang_acc = robot.body_lin_acc_w[:, asset_cfg.body_ids], robot.body_ang_acc_w[:, asset_cfg.body_ids]
-    return torch.clamp(torch.sum(torch.square(lin_acc), dim=(1, 2)) + torch.sum(torch.square(ang_acc), dim=(1, 2)),
-                       max=1e6)
+    squared = torch.sum(torch.square(robot.body_lin_acc_w[:, asset_cfg.body_ids]), dim=(1, 2))
+    squared += torch.sum(torch.square(robot.body_ang_acc_w[:, asset_cfg.body_ids]), dim=(1, 2))
+    return torch.clamp(squared, max=1e6)
 
 
 # -- joint regularisation ---------------------------------------------------------------------------
@@ -172,8 +172,7 @@ def feet_yaw_mean_vs_base(env, feet_asset_cfg: SceneEntityCfg, base_body_cfg: Sc
     poses = env.scene[feet_asset_cfg.name].body_pose_w
     feet_quat = poses[:, feet_asset_cfg.body_ids, 3:7]
     base_quat = poses[:, base_body_cfg.body_ids, 3:7].expand_as(feet_quat)
-    base_inverse = torch.cat((-base_quat[..., :3], base_quat[..., 3:]), dim=-1)
-    yaw_in_base = yaw_from_quat(quat_mul(base_inverse, feet_quat))
+    yaw_in_base = yaw_from_quat(quat_mul(quat_conjugate(base_quat), feet_quat))
     return torch.sum(torch.square(yaw_in_base), dim=1)
 
 

@@ -29,7 +29,8 @@ ROBOT_FRICTION_RANGE = (0.2, 1.0)
 def velocity_sim_cfg(terrain: TerrainGeneratorCfg, base_body: str, sensed_bodies: list[str],
                      max_contacts_per_world: int) -> SimCfg:
     """200 Hz MuJoCo physics on a generated terrain whose curriculum starts every env on row 0 or 1 (AGILE's
-    `max_init_terrain_level=1` for both velocity tasks; Isaac Lab's default is 5), a contact sensor on the bodies the contact terms read, and the base-height ray.
+    `max_init_terrain_level=1` for both velocity tasks; Isaac Lab's default is 5), a contact sensor on the
+    bodies the contact terms read, and the base-height ray.
 
     Newton's height-field collision reports several contacts per foot collider and terrain triangle
     (including near, not yet touching ones): size `max_contacts_per_world` from a measurement."""

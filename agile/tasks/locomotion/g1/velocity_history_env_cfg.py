@@ -75,7 +75,8 @@ class RewardsCfg:
     # AGILE's G1 regularises only the joints the policy drives (T1's covers all joints)
     dof_vel = RewTerm(func=mdp.joint_vel_l2, weight=-1.0e-4, params={"asset_cfg": CONTROLLED})
     dof_pos_limits = RewTerm(func=mdp.joint_pos_limits, weight=-0.5, params={"asset_cfg": CONTROLLED})
-    dof_vel_limits = RewTerm(func=mdp.joint_vel_limits, weight=-0.5, params={"asset_cfg": CONTROLLED, "soft_ratio": 0.9})
+    dof_vel_limits = RewTerm(func=mdp.joint_vel_limits, weight=-0.5,
+                             params={"asset_cfg": CONTROLLED, "soft_ratio": 0.9})
     torque_limits = RewTerm(func=mdp.applied_torque_limits, weight=-0.005, params={"asset_cfg": CONTROLLED})
     # -- actions
     action_rate = RewTerm(func=mdp.action_rate_l2, weight=-0.25)
@@ -85,7 +86,8 @@ class RewardsCfg:
     feet_roll = RewTerm(func=mdp.feet_roll_l2, weight=-0.05, params={"asset_cfg": FEET})
     feet_yaw_diff = RewTerm(func=mdp.feet_yaw_diff_l2, weight=-0.1, params={"asset_cfg": FEET})
     feet_yaw_mean = RewTerm(func=mdp.feet_yaw_mean_vs_base, weight=-2.0,
-                            params={"feet_asset_cfg": FEET, "base_body_cfg": SceneEntityCfg("robot", body_names="pelvis")})
+                            params={"feet_asset_cfg": FEET,
+                                    "base_body_cfg": SceneEntityCfg("robot", body_names="pelvis")})
     feet_distance = RewTerm(func=mdp.feet_distance_from_ref, weight=-0.1,
                             params={"asset_cfg": FEET, "ref_distance_m": 0.2})
 

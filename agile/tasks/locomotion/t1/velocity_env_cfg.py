@@ -81,7 +81,8 @@ class RewardsCfg:
     feet_roll = RewTerm(func=mdp.feet_roll_l2, weight=-0.1, params={"asset_cfg": FEET})
     feet_yaw_diff = RewTerm(func=mdp.feet_yaw_diff_l2, weight=-0.2, params={"asset_cfg": FEET})
     feet_yaw_mean = RewTerm(func=mdp.feet_yaw_mean_vs_base, weight=-4.0,
-                            params={"feet_asset_cfg": FEET, "base_body_cfg": SceneEntityCfg("robot", body_names="Waist")})
+                            params={"feet_asset_cfg": FEET,
+                                    "base_body_cfg": SceneEntityCfg("robot", body_names="Waist")})
     feet_distance = RewTerm(func=mdp.feet_distance_from_ref, weight=-0.2,
                             params={"asset_cfg": FEET, "ref_distance_m": 0.2})
 
