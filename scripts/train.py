@@ -134,7 +134,7 @@ def main(argv=None) -> None:
     runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
     if resume_path:
         print(f"[agile] resuming from {resume_path}")
-        runner.load(resume_path)
+        runner.load(resume_path, map_location=str(env.device))  # a GPU run can be resumed on another device
     if args.init_policy:
         print(f"[agile] actor initialised from {args.init_policy}")
         start = initial_actor_checkpoint(args.init_policy, log_dir, args.init_action_std)
