@@ -6,7 +6,8 @@
 For each env count, from one process on one device: raw physics (the captured decimation loop alone, no
 managers), env.step with random actions and its ratio to raw physics, PPO training (rollout + update) and
 its ratio, startup (gym.make to the first step done), device memory in use, and the share of the env
-step spent in the explicit actuators (raw physics with and without them), and where a training iteration's
+step spent in the explicit actuators (raw physics with and without them), the solver iterations of the slowest
+world under raw physics and under env.step (untimed), and where a training iteration's
 time goes (env steps, policy inference and rollout storage, PPO update). For a task on a terrain, the raw
 physics of the same robot on flat ground (no terrain, contact sensor or height rays) is measured first in a
 separate world, and the env.step and training rates are also given as ratios to it.
@@ -38,12 +39,8 @@ def device_memory_used_gb(device) -> float | None:
     return (total - free) / 1e9
 
 
-def time_physics(sim, decimation: int, steps: int, chunk_steps: int = 10) -> float:
-    """env-steps/s of the captured decimation loop alone (with the actuators), no managers.
-
-    Without a policy the robots fall over, and fallen robots on a terrain touch many more triangles than
-    standing ones (the rate then depends on how long the measurement ran): every chunk of `chunk_steps`
-    env steps starts again from the state the world had at the call, restored outside the timed region."""
+def restarter(sim):
+    """A function that puts every world back into the state it has now (robots, solver warm start cleared)."""
     import torch
 
     robot, all_worlds = sim.robot, torch.ones(sim.num_envs, dtype=torch.bool, device=sim.device)
@@ -56,6 +53,32 @@ def time_physics(sim, decimation: int, steps: int, chunk_steps: int = 10) -> flo
         robot.write_joint_state(joint_pos, joint_vel, all_worlds)
         sim.forward()
 
+    return restart
+
+
+def slowest_world_solver_iterations(sim, advance, steps: int, restart=None, chunk_steps: int = 10) -> float:
+    """Untimed: the slowest world's solver iterations in the last physics step of each env step, averaged over
+    `steps` calls of `advance` (restarting every `chunk_steps` when `restart` is given, as `time_physics` does).
+    On a GPU the solver loops until that world converges, so a figure that differs between raw physics and
+    env.step tells the two are not paying for the same physics."""
+    total = 0.0
+    for i in range(steps):
+        if restart is not None and i % chunk_steps == 0:
+            restart()
+        advance()
+        total += sim.solver_iterations().max().item()
+    if restart is not None:
+        restart()
+    return total / steps
+
+
+def time_physics(sim, decimation: int, steps: int, chunk_steps: int = 10) -> float:
+    """env-steps/s of the captured decimation loop alone (with the actuators), no managers.
+
+    Without a policy the robots fall over, and fallen robots on a terrain touch many more triangles than
+    standing ones (the rate then depends on how long the measurement ran): every chunk of `chunk_steps`
+    env steps starts again from the state the world had at the call, restored outside the timed region."""
+    restart = restarter(sim)
     for _ in range(5):
         sim.step(decimation)
     elapsed_s, done = 0.0, 0
@@ -132,6 +155,8 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     startup_s = time.perf_counter() - start
 
     raw = time_physics(env.sim, env.cfg.decimation, steps)
+    raw_iterations = slowest_world_solver_iterations(env.sim, lambda: env.sim.step(env.cfg.decimation), 20,
+                                                     restart=restarter(env.sim))
     with env.sim.actuators_disabled():
         raw_without_actuators = time_physics(env.sim, env.cfg.decimation, steps)
     env.reset()
@@ -145,6 +170,8 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
         env.step(actions[i])
     synchronize(env.device)
     full = n * steps / (time.perf_counter() - start)
+    env_step_iterations = slowest_world_solver_iterations(
+        env.sim, lambda: env.step(actions[0].uniform_(-1.0, 1.0)), 20)
 
     agent_cfg.max_iterations = train_iterations
     wrapped = RslRlVecEnvWrapper(env)
@@ -163,6 +190,8 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     result = {"num_envs": n, "raw_physics": raw, "raw_physics_without_actuators": raw_without_actuators,
               "actuator_share_of_env_step": actuator_s / (n / full), "env_step": full, "env_step_ratio": full / raw,
               "train": train, "train_ratio": train / raw, "startup_s": startup_s, "device_memory_gb": memory,
+              "solver_iterations_slowest_world_raw": raw_iterations,
+              "solver_iterations_slowest_world_env_step": env_step_iterations,
               "iteration_s": iteration_s, **{f"iteration_{phase}": value for phase, value in phases.items()}}
     if flat_raw is not None:
         result.update(flat_raw_physics=flat_raw, env_step_ratio_to_flat=full / flat_raw,
@@ -208,6 +237,11 @@ def main(argv=None) -> None:
     for r in rows:
         print(f"{r['num_envs']:>7} {r['iteration_s']:>10.3f} {r['iteration_env_steps_s']:>10.3f} "
               f"{r['iteration_policy_and_storage_s']:>8.3f} {r['iteration_update_s']:>8.3f}")
+    print("\nsolver iterations per physics step of the slowest world (a GPU step waits for it), untimed")
+    print(f"{'envs':>7} {'raw physics':>12} {'env.step':>10}")
+    for r in rows:
+        print(f"{r['num_envs']:>7} {r['solver_iterations_slowest_world_raw']:>12.1f} "
+              f"{r['solver_iterations_slowest_world_env_step']:>10.1f}")
     flat_rows = [r for r in rows if "flat_raw_physics" in r]
     if flat_rows:
         print("\nthe same robot on flat ground (raw physics) and the ratios to it")

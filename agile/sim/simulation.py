@@ -288,6 +288,12 @@ class Simulation:
         self._graphs[num_steps] = capture.graph
         return capture.graph
 
+    def solver_iterations(self) -> torch.Tensor:
+        """(N,) solver iterations each world took in the last physics step. On a GPU MuJoCo Warp repeats its
+        iteration until the slowest world has converged (or hit the cap), so the maximum sets the step's cost;
+        on the CPU every step runs the cap."""
+        return wp.to_torch(self.solver.mjw_data.solver_niter)[: self.num_envs]
+
     def reset_worlds(self, mask: torch.Tensor) -> None:
         """Clear the solver's per-world internals (warm start, applied forces) and the contact sensor's
         histories and clocks where mask (N,) is True.
