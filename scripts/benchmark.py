@@ -171,7 +171,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     synchronize(env.device)
     full = n * steps / (time.perf_counter() - start)
     env_step_iterations = slowest_world_solver_iterations(
-        env.sim, lambda: env.step(actions[0].uniform_(-1.0, 1.0)), 20)
+        env.sim, lambda: env.step(torch.rand_like(actions[0]) * 2 - 1), 20)
 
     agent_cfg.max_iterations = train_iterations
     wrapped = RslRlVecEnvWrapper(env)
