@@ -4,7 +4,8 @@
     python scripts/plot_learning_curve.py --run "G1=..." --tag Curriculum/terrain_levels --tag Train/mean_reward \
         --out t.png
 
-A run given as several files (comma-separated) is concatenated in order, e.g. a run and its resumption.
+A run given as several files (comma-separated) is joined in order, e.g. a run and its resumption: each file
+replaces the earlier ones from its first iteration on.
 """
 
 from __future__ import annotations
@@ -18,21 +19,28 @@ AXIS_LABELS = {"Train/mean_episode_length": "mean episode length [steps]", "Trai
                "Curriculum/terrain_levels": "mean terrain level (row)"}
 
 
+def join_resumed(pieces: list[list[tuple[int, float]]]) -> tuple[list[int], list[float]]:
+    """One curve from a run and its resumptions, each a list of (iteration, value). A resumption restarts
+    from a saved checkpoint, so it replaces the earlier pieces from its first iteration on (the iterations
+    they logged after that checkpoint belong to a branch that no longer leads anywhere)."""
+    points: list[tuple[int, float]] = []
+    for piece in pieces:
+        if piece:
+            first = piece[0][0]
+            points = [point for point in points if point[0] < first] + sorted(piece)
+    return [step for step, _ in points], [value for _, value in points]
+
+
 def read_scalars(files: list[str], tag: str) -> tuple[list[int], list[float]]:
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-    steps, values = [], []
+    pieces = []
     for path in files:
         events = EventAccumulator(path, size_guidance={"scalars": 0})
         events.Reload()
-        if tag not in events.Tags()["scalars"]:
-            continue
-        for event in events.Scalars(tag):
-            if steps and event.step <= steps[-1]:
-                continue  # a resumed run repeats its first iteration
-            steps.append(event.step)
-            values.append(event.value)
-    return steps, values
+        if tag in events.Tags()["scalars"]:
+            pieces.append([(event.step, event.value) for event in events.Scalars(tag)])
+    return join_resumed(pieces)
 
 
 def main(argv=None) -> None:

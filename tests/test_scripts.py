@@ -193,3 +193,14 @@ def test_train_records_clips_every_n_iterations(tmp_path):
     assert sorted(p.name for p in (run_dir / "videos").iterdir()) == ["iteration_1.mp4", "iteration_2.mp4"]
     policy = yaml.safe_load((run_dir / "exported" / "io_descriptor.yaml").read_text())["policy"]
     assert policy["recurrent"] and policy["rnn_type"] == "gru" and policy["rnn_hidden_dim"] == 16
+
+
+def test_learning_curve_resumption_replaces_the_abandoned_branch():
+    from plot_learning_curve import join_resumed
+
+    run = [(0, 0.0), (1, 1.0), (2, 2.0), (3, 3.0)]
+    resumed_from_1 = [(1, 10.0), (2, 20.0), (3, 30.0), (4, 40.0)]
+    steps, values = join_resumed([run, [], resumed_from_1])
+    assert steps == [0, 1, 2, 3, 4]
+    assert values == [0.0, 10.0, 20.0, 30.0, 40.0]
+    assert join_resumed([run, [(4, 4.0)]]) == ([0, 1, 2, 3, 4], [0.0, 1.0, 2.0, 3.0, 4.0])
