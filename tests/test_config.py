@@ -67,7 +67,7 @@ def test_to_dict_names_functions():
     assert d["inner"] == {"weight": 1.0, "names": [".*"]}
 
 
-@pytest.mark.parametrize("task", ["Velocity-T1-v0", "Velocity-G1-History-v0"])
+@pytest.mark.parametrize("task", ["Velocity-G1-History-v0"])
 def test_shipped_policy_conditions_still_name_real_fields(task):
     import agile.tasks
 
@@ -76,6 +76,13 @@ def test_shipped_policy_conditions_still_name_real_fields(task):
     env_cfg, agent_cfg = agile.tasks.load_cfgs(task)
     apply_overrides({"env": env_cfg, "agent": agent_cfg}, overrides)  # a renamed field raises ConfigError
     assert env_cfg.sim.terrain is None and env_cfg.actions.random_pos is None
+
+
+def test_a_policy_trained_on_the_registered_task_has_no_conditions():
+    import agile.tasks
+
+    assert agile.tasks.pretrained_policy("Velocity-T1-v0") is not None
+    assert agile.tasks.pretrained_policy_conditions("Velocity-T1-v0") == ("", [])
 
 
 def test_rsl_rl_runner_options_reach_the_runner_cfg():
