@@ -4,11 +4,11 @@
     python scripts/benchmark.py --task Velocity-T1-v0 --device cpu --num_envs 2 --steps 20   # a CPU check
 
 For each env count, from one process on one device: raw physics (the captured decimation loop alone, no
-managers, from the state the env has after one second of random actions), env.step with random actions and its ratio to raw physics, PPO training (rollout + update) and
-its ratio, startup (gym.make to the first step done), device memory in use, and the share of the env
-step spent in the explicit actuators (raw physics with and without them), the solver iterations of the slowest
-world under raw physics and under env.step (untimed), and where a training iteration's
-time goes (env steps, policy inference and rollout storage, PPO update). For a task on a terrain, the raw
+managers, from the state the env has after one second of random actions), env.step with random actions and
+its ratio to raw physics, PPO training (rollout + update) and its ratio, startup (gym.make to the first step
+done), device memory in use, the share of the env step spent in the explicit actuators (raw physics with and
+without them), the solver iterations of the slowest world under raw physics and under env.step (untimed),
+and where a training iteration's time goes (env steps, policy inference and rollout storage, PPO update). For a task on a terrain, the raw
 physics of the same robot on flat ground (no terrain, contact sensor or height rays) is measured first in a
 separate world, and the env.step and training rates are also given as ratios to it.
 """
@@ -160,7 +160,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     startup_s = time.perf_counter() - start
 
     # Raw physics starts from a state env.step visits: right after the spawn the robots land (randomised
-    # pose, joints and velocities), which on a terrain on the GPU is dearer than a running env's step.
+    # pose, joints and velocities), which on a terrain is dearer than a running env's step.
     for _ in range(RUNNING_STATE_ENV_STEPS):
         env.step(torch.rand(n, action_dim, device=env.device) * 2 - 1)
     raw = time_physics(env.sim, env.cfg.decimation, steps)

@@ -24,10 +24,9 @@ def join_resumed(pieces: list[list[tuple[int, float]]]) -> tuple[list[int], list
     from a saved checkpoint, so it replaces the earlier pieces from its first iteration on (the iterations
     they logged after that checkpoint belong to a branch that no longer leads anywhere)."""
     points: list[tuple[int, float]] = []
-    for piece in pieces:
+    for piece in map(sorted, pieces):
         if piece:
-            first = piece[0][0]
-            points = [point for point in points if point[0] < first] + sorted(piece)
+            points = [point for point in points if point[0] < piece[0][0]] + piece
     return [step for step, _ in points], [value for _, value in points]
 
 
