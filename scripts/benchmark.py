@@ -45,17 +45,18 @@ def device_memory_used_gb(device) -> float | None:
 
 
 def restarter(sim):
-    """A function that puts every world back into the state it has now (robots, solver warm start cleared)."""
+    """A function that puts every world back into the state it has now (entities, solver warm start cleared)."""
     import torch
+    import warp as wp
 
-    robot, all_worlds = sim.robot, torch.ones(sim.num_envs, dtype=torch.bool, device=sim.device)
-    start_state = [t.clone() for t in (robot.root_pose_w, robot.root_com_vel_w, robot.joint_pos, robot.joint_vel)]
+    all_worlds = torch.ones(sim.num_envs, dtype=torch.bool, device=sim.device)
+    coords, dofs = wp.to_torch(sim.state.joint_q), wp.to_torch(sim.state.joint_qd)
+    start_state = (coords.clone(), dofs.clone())
 
     def restart() -> None:
-        pose, vel, joint_pos, joint_vel = start_state
         sim.reset_worlds(all_worlds)  # first: the solver's reset also puts the joint state back to the model's
-        robot.write_root_state(pose, vel, all_worlds)
-        robot.write_joint_state(joint_pos, joint_vel, all_worlds)
+        coords.copy_(start_state[0])
+        dofs.copy_(start_state[1])
         sim.forward()
 
     return restart
@@ -102,13 +103,13 @@ def time_physics(sim, decimation: int, steps: int, chunk_steps: int = 10) -> flo
 
 
 def flat_raw_physics(env_cfg, device: str, steps: int) -> float:
-    """Raw physics of the task's robot on a ground plane (no terrain, contact sensor or height rays), in a
+    """Raw physics of the task's scene on a ground plane (no terrain, contact sensors or height rays), in a
     world of its own, released before returning."""
     from agile.sim import Simulation
 
-    flat_cfg = copy.deepcopy(env_cfg.sim)
-    flat_cfg.terrain, flat_cfg.contact_sensor, flat_cfg.height_scanners = None, None, {}
-    sim = Simulation(flat_cfg, env_cfg.robot, env_cfg.num_envs, device, env_cfg.sim.physics_dt_s * env_cfg.decimation)
+    flat_scene = copy.deepcopy(env_cfg.scene)
+    flat_scene.terrain, flat_scene.contact_sensors, flat_scene.height_scanners = None, {}, {}
+    sim = Simulation(env_cfg.sim, flat_scene, env_cfg.num_envs, device, env_cfg.sim.physics_dt_s * env_cfg.decimation)
     rate = time_physics(sim, env_cfg.decimation, steps)
     del sim
     return rate
@@ -150,7 +151,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     from agile.rl_env import ManagerBasedRLEnv
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 
-    flat_raw = flat_raw_physics(env_cfg, device, steps) if env_cfg.sim.terrain is not None else None
+    flat_raw = flat_raw_physics(env_cfg, device, steps) if env_cfg.scene.terrain is not None else None
     start = time.perf_counter()
     env = ManagerBasedRLEnv(env_cfg, task_name=task, device=device)
     n = env.num_envs

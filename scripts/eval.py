@@ -37,7 +37,7 @@ def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity"
             obs, reward, terminated, truncated, _ = env.step(policy(obs))
             for recorder in recorders:
                 recorder.record(env, step * env.step_dt)
-            robot = env.robot
+            robot = env.scene[env.action_manager.policy_entity_name()]
             alive = ~(terminated | truncated)  # the state of a reset env is its new episode's first state
             lin_err = torch.linalg.norm(command[:, :2] - robot.root_lin_vel_b[:, :2], dim=1)
             ang_err = (command[:, 2] - robot.root_ang_vel_b[:, 2]).abs()

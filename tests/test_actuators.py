@@ -105,7 +105,7 @@ def test_armature_gains_and_action_scales_match_the_reference_table():
 
 
 def test_tasks_run_on_delayed_dc_motors(t1_env):
-    robot = t1_env.robot
+    robot = t1_env.scene["robot"]
     assert robot.explicit_joints.all()
     group = t1_env.sim.actuator_groups[0]
     assert isinstance(group.cfg, DelayedDCMotorCfg) and group.max_delay == 8
@@ -141,14 +141,14 @@ def test_delayed_implicit_shifts_the_solver_targets_by_k_steps_and_restores_the_
 def test_g1_armature_set_builds_with_delayed_implicit_legs():
     from agile.actuators import DelayedTargetGroup
     from agile.assets.unitree_g1 import g1_robot_cfg
-    from agile.sim import SimCfg, Simulation
+    from scenes import robot_sim
 
-    sim = Simulation(SimCfg(), g1_robot_cfg("armature_delayed_implicit"), 2, "cpu", 0.02)
+    sim = robot_sim(g1_robot_cfg("armature_delayed_implicit"), 2)
     groups = [g for g in sim.actuator_groups if isinstance(g, DelayedTargetGroup)]
     assert len(groups) == 1 and len(groups[0].joint_ids) == 12
-    knee = sim.robot.find_joints("left_knee_joint")[0][0]
-    assert sim.robot.joint_stiffness[0, knee].item() == pytest.approx(99.098, rel=1e-3)
-    assert not sim.robot.explicit_joints.any()
-    sim.reset_actuators(torch.ones(2, dtype=torch.bool))
+    knee = sim.scene["robot"].find_joints("left_knee_joint")[0][0]
+    assert sim.scene["robot"].joint_stiffness[0, knee].item() == pytest.approx(99.098, rel=1e-3)
+    assert not sim.scene["robot"].explicit_joints.any()
+    sim.scene["robot"].reset_actuators(torch.ones(2, dtype=torch.bool))
     sim.step(4)
-    assert torch.isfinite(sim.robot.joint_pos).all()
+    assert torch.isfinite(sim.scene["robot"].joint_pos).all()

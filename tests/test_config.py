@@ -75,7 +75,7 @@ def test_shipped_policy_conditions_still_name_real_fields(task):
     assert trained_on and overrides
     env_cfg, agent_cfg = agile.tasks.load_cfgs(task)
     apply_overrides({"env": env_cfg, "agent": agent_cfg}, overrides)  # a renamed field raises ConfigError
-    assert env_cfg.sim.terrain is None and env_cfg.actions.random_pos is None
+    assert env_cfg.scene.terrain is None and env_cfg.actions.random_pos is None
 
 
 def test_a_policy_trained_on_the_registered_task_has_no_conditions():
@@ -102,4 +102,4 @@ def test_velocity_tasks_start_on_agile_terrain_rows(task):
     import agile.tasks
 
     env_cfg, _ = agile.tasks.load_cfgs(task)
-    assert env_cfg.sim.max_init_terrain_level == 1  # AGILE's velocity configs start every env on row 0 or 1
+    assert env_cfg.scene.max_init_terrain_level == 1  # AGILE's velocity configs start every env on row 0 or 1

@@ -8,6 +8,7 @@ from agile.assets.booster_t1 import t1_robot_cfg
 from agile.rl_env import ManagerBasedRLEnv, mdp
 from agile.rl_env.managers import SceneEntityCfg
 from agile.sim import ContactSensorCfg, SimCfg, Simulation
+from scenes import robot_sim
 from agile.sim.names import resolve_names
 from agile.tasks.locomotion.g1.velocity_history_env_cfg import G1VelocityHistoryEnvCfg
 from agile.tasks.locomotion.t1.velocity_env_cfg import T1VelocityEnvCfg
@@ -20,21 +21,21 @@ SENSED = ["Trunk", ".*_foot_link"]
 
 
 def t1_sim(num_envs: int, **sensor_kwargs) -> Simulation:
-    cfg = SimCfg(physics_dt_s=STEP_DT_S / PHYSICS_STEPS, contact_sensor=ContactSensorCfg(**sensor_kwargs))
-    return Simulation(cfg, t1_robot_cfg("implicit"), num_envs, "cpu", STEP_DT_S)
+    return robot_sim(t1_robot_cfg("implicit"), num_envs, STEP_DT_S, sim=SimCfg(physics_dt_s=STEP_DT_S / PHYSICS_STEPS),
+                     contact_sensor=ContactSensorCfg(**sensor_kwargs))
 
 
 @pytest.fixture(scope="module")
 def stand_and_drop():
     """World 0 starts standing, world 1 starts DROP_HEIGHT_M higher; 25 env steps of sensor readings."""
     sim = t1_sim(2, body_names=SENSED)
-    robot = sim.robot
+    robot = sim.scene["robot"]
     raise_world_1 = torch.tensor([False, True])
     pose = robot.root_pose_w.clone()
     pose[:, 2] += DROP_HEIGHT_M
     robot.write_root_state(pose, torch.zeros_like(robot.root_com_vel_w), raise_world_1)
     sim.forward(raise_world_1)
-    sensor = sim.contact_sensor
+    sensor = sim.scene["contact_forces"]
     trace = []
     for _ in range(25):
         sim.step(PHYSICS_STEPS)
@@ -46,9 +47,9 @@ def stand_and_drop():
 
 def test_standing_robot_has_both_feet_down_and_carries_its_weight(stand_and_drop):
     sim, trace = stand_and_drop
-    feet, _ = sim.contact_sensor.find_bodies(".*_foot_link")
-    trunk, _ = sim.contact_sensor.find_bodies("Trunk")
-    weight_n = sim.robot.body_mass[0].sum().item() * GRAVITY_MPS2
+    feet, _ = sim.scene["contact_forces"].find_bodies(".*_foot_link")
+    trunk, _ = sim.scene["contact_forces"].find_bodies("Trunk")
+    weight_n = sim.scene["robot"].body_mass[0].sum().item() * GRAVITY_MPS2
     for step in trace[10:20]:  # settled, before the untrained robot starts to tip over
         force = step["force"][0]
         assert (force[feet].norm(dim=-1) > 1.0).all()
@@ -58,7 +59,7 @@ def test_standing_robot_has_both_feet_down_and_carries_its_weight(stand_and_drop
 
 def test_dropped_robot_is_airborne_then_lands_with_first_contact(stand_and_drop):
     sim, trace = stand_and_drop
-    feet, _ = sim.contact_sensor.find_bodies(".*_foot_link")
+    feet, _ = sim.scene["contact_forces"].find_bodies(".*_foot_link")
     in_contact = [bool((s["force"][1, feet].norm(dim=-1) > 1.0).any()) for s in trace]
     touchdown = in_contact.index(True)
     # free fall of 0.4 m takes about 0.29 s
@@ -78,7 +79,7 @@ def test_dropped_robot_is_airborne_then_lands_with_first_contact(stand_and_drop)
 
 def test_history_holds_the_previous_physics_steps_newest_first():
     sim = t1_sim(1, body_names=".*_foot_link", history_length=3)
-    sensor = sim.contact_sensor
+    sensor = sim.scene["contact_forces"]
     newest = []
     for _ in range(12):
         sim.step(1)
@@ -92,7 +93,7 @@ def test_history_holds_the_previous_physics_steps_newest_first():
 
 def test_reset_clears_only_the_masked_worlds(stand_and_drop):
     sim, _ = stand_and_drop
-    sensor = sim.contact_sensor
+    sensor = sim.scene["contact_forces"]
     sim.step(PHYSICS_STEPS)
     kept = [t.clone()[1] for t in (sensor.net_forces_w_history, sensor.lin_vel_w_history, sensor.current_contact_time_s,
                                    sensor.last_air_time_s)]
@@ -114,7 +115,7 @@ def test_body_regex_matching_nothing_lists_the_bodies():
 def test_air_time_needs_tracking():
     sim = t1_sim(1, body_names=".*_foot_link", track_air_time=False)
     with pytest.raises(RuntimeError, match="track_air_time"):
-        sim.contact_sensor.compute_first_contact(STEP_DT_S)
+        sim.scene["contact_forces"].compute_first_contact(STEP_DT_S)
 
 
 @pytest.mark.parametrize("task_cfg", [T1VelocityEnvCfg, G1VelocityHistoryEnvCfg])

@@ -11,8 +11,8 @@ import warp as wp
 from agile.assets.booster_t1 import t1_robot_cfg
 from agile.rl_env import mdp
 from agile.rl_env.managers import ActionManager, SceneEntityCfg
-from agile.sim import SimCfg, Simulation
 from fakes import FakeEnv
+from scenes import robot_sim
 
 NUM_ENVS = 3
 STEP_DT_S = 0.02
@@ -22,8 +22,8 @@ GRAVITY_MPS2 = 9.81
 
 def make_env(actuators: str) -> SimpleNamespace:
     """What event and reward terms read from an env (scene, sim, sizes), without the managers."""
-    sim = Simulation(SimCfg(ground_friction=0.1), t1_robot_cfg(actuators), NUM_ENVS, "cpu", STEP_DT_S)
-    return SimpleNamespace(sim=sim, robot=sim.robot, scene={"robot": sim.robot}, num_envs=NUM_ENVS,
+    sim = robot_sim(t1_robot_cfg(actuators), NUM_ENVS, STEP_DT_S, ground_friction=0.1)
+    return SimpleNamespace(sim=sim, robot=sim.scene["robot"], scene=sim.scene, num_envs=NUM_ENVS,
                            device=sim.device, step_dt=STEP_DT_S)
 
 

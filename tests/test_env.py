@@ -9,7 +9,8 @@ import warp as wp
 from tensordict import TensorDict
 
 import agile.tasks
-from agile.sim import RobotCfg, SimCfg, Simulation
+from agile.sim import ArticulationCfg
+from scenes import robot_sim
 from agile.utils.config import ConfigError
 
 
@@ -39,7 +40,7 @@ def test_regex_matching_no_joint_is_a_config_error_naming_the_term():
 
 
 def test_views_are_zero_copy(t1_env):
-    robot = t1_env.robot
+    robot = t1_env.scene["robot"]
     assert robot.joint_pos.data_ptr() == wp.to_torch(t1_env.sim.state.joint_q).data_ptr() + 7 * 4
     robot.joint_pos[0, 0] = 0.123
     assert t1_env.sim.state.joint_q.numpy()[7] == pytest.approx(0.123)
@@ -64,7 +65,7 @@ def test_nan_world_is_reset_counted_and_training_goes_on(t1_env):
     env.reset()
     action = torch.zeros(env.num_envs, env.action_manager.total_action_dim)
     env.step(action)
-    env.robot.joint_vel[0, 3] = float("nan")
+    env.scene["robot"].joint_vel[0, 3] = float("nan")
     obs, reward, terminated, truncated, extras = env.step(action)
     assert terminated[0] and env.episode_length_buf[0] == 0
     assert torch.isfinite(reward).all()
@@ -72,13 +73,13 @@ def test_nan_world_is_reset_counted_and_training_goes_on(t1_env):
     assert extras["log"]["Episode_Termination/sim_unstable"] > 0
     for _ in range(3):
         obs, reward, *_ = env.step(action)
-    assert torch.isfinite(env.robot.joint_pos).all() and torch.isfinite(reward).all()
+    assert torch.isfinite(env.scene["robot"].joint_pos).all() and torch.isfinite(reward).all()
 
 
 def test_reset_events_randomise_within_ranges(t1_env):
     env = t1_env
     env.reset()
-    robot = env.robot
+    robot = env.scene["robot"]
     offset = robot.root_pos_w[:, :2] - env.env_origins[:, :2]
     assert (offset.abs() <= 2.5 + 1e-4).all()
     ratio = robot.joint_pos / torch.where(robot.default_joint_pos == 0, 1.0, robot.default_joint_pos)
@@ -88,21 +89,21 @@ def test_reset_events_randomise_within_ranges(t1_env):
 
 @pytest.mark.parametrize("asset", ["nv_humanoid.xml", "quadruped.urdf"])
 def test_user_robot_files_load(asset):
-    cfg = RobotCfg(model_file=str(newton.examples.get_asset(asset)), init_pos_m=(0.0, 0.0, 1.5))
-    sim = Simulation(SimCfg(), cfg, num_envs=2, device="cpu", step_dt_s=0.02)
-    z0 = sim.robot.root_pos_w[:, 2].clone()
+    cfg = ArticulationCfg(model_file=str(newton.examples.get_asset(asset)), init_pos_m=(0.0, 0.0, 1.5))
+    sim = robot_sim(cfg, num_envs=2)
+    z0 = sim.scene["robot"].root_pos_w[:, 2].clone()
     sim.step(4)
-    assert sim.robot.num_joints > 0 and (sim.robot.root_pos_w[:, 2] < z0).all()  # falls under gravity
+    assert sim.scene["robot"].num_joints > 0 and (sim.scene["robot"].root_pos_w[:, 2] < z0).all()  # falls under gravity
 
 
 def test_missing_robot_file_is_reported():
     with pytest.raises(FileNotFoundError, match="robot model file not found"):
-        Simulation(SimCfg(), RobotCfg(model_file="/nonexistent/robot.xml"), 1, "cpu", 0.02)
+        robot_sim(ArticulationCfg(model_file="/nonexistent/robot.xml"), 1)
 
 
 def test_root_velocity_is_the_centre_of_mass_velocity(t1_env):
     # Isaac Lab's root_lin_vel_b is root_com_lin_vel_b: a base spinning about its centre of mass has none
-    robot, n = t1_env.robot, t1_env.num_envs
+    robot, n = t1_env.scene["robot"], t1_env.num_envs
     assert robot.body_com_b[0, 0, :2].norm() > 0.01  # off the spin axis through the frame origin
     spin = torch.tensor([0.0, 0.0, 0.0, 0.0, 0.0, 2.0]).repeat(n, 1)
     robot.write_root_state(robot.root_pose_w.clone(), spin, torch.ones(n, dtype=torch.bool))

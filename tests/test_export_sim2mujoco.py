@@ -18,7 +18,7 @@ from agile.assets.unitree_g1 import g1_robot_cfg
 from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, make_recurrent, to_rsl_rl_dict
 from agile.rl_env.rsl_rl.exporter import (example_input, export_policy, io_descriptor, read_io_descriptor,
                                           write_io_descriptor)
-from agile.sim import SimCfg, Simulation
+from scenes import robot_sim
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 import sim2mujoco  # noqa: E402
@@ -142,7 +142,7 @@ def test_recurrent_io_descriptor_round_trips_and_names_the_hidden_state(recurren
 
 
 def test_g1_feet_are_imported_as_colliders():
-    builder_sim = Simulation(SimCfg(), g1_robot_cfg(), 1, "cpu", 0.02)
+    builder_sim = robot_sim(g1_robot_cfg(), 1)
     model = builder_sim.model
     labels = [model.shape_label[i] for i in range(model.shape_count)
               if model.shape_flags.numpy()[i] & int(newton.ShapeFlags.COLLIDE_SHAPES)]
@@ -156,8 +156,8 @@ def test_newton_and_plain_mujoco_agree_on_the_same_torques(exported):
     cfg = g1_robot_cfg()
     for group in cfg.actuators.values():
         group.max_delay = 0  # sim2mujoco does not model delays
-    sim = Simulation(SimCfg(), cfg, 1, "cpu", 0.02)
-    robot = sim.robot
+    sim = robot_sim(cfg, 1)
+    robot = sim.scene["robot"]
     targets = robot.default_joint_pos[0].numpy() + np.random.default_rng(0).uniform(-0.3, 0.3, robot.num_joints)
     robot.joint_pos_target[0] = torch.tensor(targets, dtype=torch.float32)
     model = sim2mujoco.build_model(descriptor, sim2mujoco.default_mjcf(descriptor))

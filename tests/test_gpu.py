@@ -33,7 +33,7 @@ def test_captured_step_recovers_from_nan():
     action = torch.zeros(32, env.action_manager.total_action_dim, device="cuda:0")
     for _ in range(5):
         env.step(action)
-    env.robot.joint_vel[3, 0] = float("nan")
+    env.scene["robot"].joint_vel[3, 0] = float("nan")
     obs, reward, terminated, truncated, extras = env.step(action)
     assert terminated[3] and extras["log"]["Episode_Termination/sim_unstable"].item() > 0
-    assert torch.isfinite(reward).all() and torch.isfinite(env.robot.joint_pos).all()
+    assert torch.isfinite(reward).all() and torch.isfinite(env.scene["robot"].joint_pos).all()

@@ -44,14 +44,14 @@ def test_mirroring_twice_is_the_identity(env):
 
 def test_default_pose_is_symmetric(env):
     mirror = group_mirror(env)
-    q0 = env.robot.default_joint_pos[0]
+    q0 = env.scene["robot"].default_joint_pos[0]
     perm, sign = torch.tensor(mirror.joint_perm), torch.tensor(mirror.joint_sign)
     assert torch.allclose(q0[perm] * sign, q0, atol=1e-6)
 
 
 def test_mirror_of_observations_equals_observations_of_the_mirrored_state(env):
     torch.manual_seed(1)
-    robot, n = env.robot, env.num_envs
+    robot, n = env.scene["robot"], env.num_envs
     mirror = group_mirror(env)
     perm, sign = torch.tensor(mirror.joint_perm), torch.tensor(mirror.joint_sign)
     command_term = env.command_manager.get_term("base_velocity")

@@ -11,9 +11,8 @@ import torch
 
 from agile.rl_env.managers import CurrTerm
 from agile.rl_env.mdp.curriculums import terrain_levels_vel
-from agile.sim import RobotCfg, SimCfg
-from agile.sim.sim_cfg import HeightScannerCfg
-from agile.sim.simulation import Simulation
+from agile.sim import ArticulationCfg, HeightScannerCfg, SceneCfg, SimCfg
+from scenes import robot_sim
 from agile.sim.terrain import (LESS_ROUGH_TERRAIN_CFG, MEDIUM_ROUGH_TERRAIN_CFG, STAND_UP_ROUGH_TERRAIN_CFG,
                                BoxGridTerrainCfg, FlatTerrainCfg, PyramidSlopeTerrainCfg, PyramidStairsTerrainCfg,
                                RandomUniformTerrainCfg, TerrainGeneratorCfg, WaveTerrainCfg, cache_dir, cache_key,
@@ -186,21 +185,21 @@ NUM_ENVS = 4
 def box_sim(tmp_path_factory):
     path = tmp_path_factory.mktemp("robot") / "box.xml"
     path.write_text(BOX_XML)
-    cfg = SimCfg(terrain=STAIRS, max_init_terrain_level=1, use_graph=False,
-                 height_scanners={"scan": HeightScannerCfg(body_name="base", size_m=(0.4, 0.2), resolution_m=0.1)})
     torch.manual_seed(0)
-    return Simulation(cfg, RobotCfg(model_file=str(path), init_pos_m=(0.0, 0.0, 0.3)), NUM_ENVS, "cpu", 0.02)
+    return robot_sim(ArticulationCfg(model_file=str(path), init_pos_m=(0.0, 0.0, 0.3)), NUM_ENVS,
+                     sim=SimCfg(use_graph=False), terrain=STAIRS, max_init_terrain_level=1,
+                     height_scanners={"scan": HeightScannerCfg(body_name="base", size_m=(0.4, 0.2), resolution_m=0.1)})
 
 
-def place(sim: Simulation, offsets_xy_m: list[tuple[float, float]], height_m: float) -> None:
+def place(sim, offsets_xy_m: list[tuple[float, float]], height_m: float) -> None:
     """Put each env's box at its origin + offset, `height_m` above the origin, at rest."""
-    pose = sim.robot.default_root_pose.clone()
+    pose = sim.scene["robot"].default_root_pose.clone()
     pose[:, :3] = sim.env_origins
     pose[:, :2] += torch.tensor(offsets_xy_m)
     pose[:, 2] += height_m
     everyone = torch.ones(sim.num_envs, dtype=torch.bool)
     sim.reset_worlds(everyone)
-    sim.robot.write_root_state(pose, torch.zeros_like(sim.robot.root_com_vel_w), everyone)
+    sim.scene["robot"].write_root_state(pose, torch.zeros_like(sim.scene["robot"].root_com_vel_w), everyone)
     sim.forward()
 
 
@@ -215,7 +214,7 @@ def test_env_origins_come_from_terrain_cells(box_sim):
 def test_terrain_contacts_use_the_configured_gap(box_sim):
     # Newton's 0.1 m default gap made every foot collect contacts from every triangle within 10 cm
     gap = box_sim.model.shape_gap.numpy()
-    assert np.all(gap == pytest.approx(SimCfg().terrain_contact_gap_m)) and SimCfg().terrain_contact_gap_m < 0.1
+    assert np.all(gap == pytest.approx(SceneCfg().terrain_contact_gap_m)) and SceneCfg().terrain_contact_gap_m < 0.1
 
 
 def test_box_rests_on_step_and_platform(box_sim):
@@ -225,14 +224,14 @@ def test_box_rests_on_step_and_platform(box_sim):
     place(sim, offsets, 0.15)
     sim.step(100)  # 0.5 s: falls ~3 cm and settles
     expected = sim.env_origins[:, 2] - 0.2 + torch.tensor([0.2, 0.1, 0.0, 0.2]) + 0.1  # box half height 0.1 m
-    assert torch.allclose(sim.robot.root_pos_w[:, 2], expected, atol=3e-3), (sim.robot.root_pos_w, expected)
-    assert torch.allclose(sim.robot.root_pos_w[:, :2], sim.env_origins[:, :2] + torch.tensor(offsets), atol=0.02)
+    assert torch.allclose(sim.scene["robot"].root_pos_w[:, 2], expected, atol=3e-3), (sim.scene["robot"].root_pos_w, expected)
+    assert torch.allclose(sim.scene["robot"].root_pos_w[:, :2], sim.env_origins[:, :2] + torch.tensor(offsets), atol=0.02)
 
 
 def test_height_scan_hits_known_heights(box_sim):
     sim = box_sim
     place(sim, [(0.0, 0.0), (1.25, 0.0), (0.0, -1.8), (1.25, 0.0)], 0.5)
-    scan = sim.height_scanners["scan"]
+    scan = sim.scene.height_scanners["scan"]
     assert scan.num_rays == 5 * 3
     scan.update()
     ground = sim.env_origins[:, 2] - 0.2  # cell origins sit on the 0.2 m platform
@@ -242,11 +241,11 @@ def test_height_scan_hits_known_heights(box_sim):
     # between samples is the collision surface as well
     assert torch.allclose(hit[1].view(3, 5), torch.tensor([0.15, 0.1, 0.1, 0.1, 0.05]).expand(3, 5), atol=1e-5)
     assert torch.allclose(hit[2], torch.zeros(15), atol=1e-6)
-    assert torch.allclose(scan.base_height_m, sim.robot.root_pos_w[:, 2] - scan.hit_z_m.mean(dim=1))
+    assert torch.allclose(scan.base_height_m, sim.scene["robot"].root_pos_w[:, 2] - scan.hit_z_m.mean(dim=1))
     # the grid turns with the body's yaw: at 90 degrees its x extent lies along world y, on the 0.1 m ring
-    pose = sim.robot.root_pose_w.clone()
+    pose = sim.scene["robot"].root_pose_w.clone()
     pose[3, 3:7] = torch.tensor([0.0, 0.0, math.sin(math.pi / 4), math.cos(math.pi / 4)])
-    sim.robot.write_root_state(pose, torch.zeros_like(sim.robot.root_com_vel_w), torch.tensor([0, 0, 0, 1]).bool())
+    sim.scene["robot"].write_root_state(pose, torch.zeros_like(sim.scene["robot"].root_com_vel_w), torch.tensor([0, 0, 0, 1]).bool())
     sim.forward()
     scan.update()
     rotated = scan.ray_xy_w[3] - sim.env_origins[3, :2]
@@ -257,11 +256,11 @@ def test_height_scan_hits_known_heights(box_sim):
 def test_height_scan_on_flat_ground(tmp_path):
     path = tmp_path / "box.xml"
     path.write_text(BOX_XML)
-    cfg = SimCfg(use_graph=False, height_scanners={"scan": HeightScannerCfg(body_name="base")})
-    sim = Simulation(cfg, RobotCfg(model_file=str(path), init_pos_m=(0.0, 0.0, 0.7)), 2, "cpu", 0.02)
+    sim = robot_sim(ArticulationCfg(model_file=str(path), init_pos_m=(0.0, 0.0, 0.7)), 2, sim=SimCfg(use_graph=False),
+                    height_scanners={"scan": HeightScannerCfg(body_name="base")})
     assert sim.terrain is None and sim.contacts is None  # the plane keeps MuJoCo's own contacts
     sim.forward()  # body poses from the default joint state
-    scan = sim.height_scanners["scan"]
+    scan = sim.scene.height_scanners["scan"]
     scan.update()
     assert scan.num_rays == 1 and not scan.hit_z_m.any()
     assert torch.allclose(scan.base_height_m, torch.full((2,), 0.7))
@@ -273,7 +272,7 @@ def test_height_scan_on_flat_ground(tmp_path):
 def test_terrain_levels_vel_moves_envs_up_and_down(box_sim):
     sim = box_sim
     command = torch.zeros(NUM_ENVS, 3)
-    env = SimpleNamespace(sim=sim, num_envs=NUM_ENVS, device=sim.device, scene={"robot": sim.robot},
+    env = SimpleNamespace(sim=sim, num_envs=NUM_ENVS, device=sim.device, scene=sim.scene,
                           command_manager=SimpleNamespace(get_command=lambda name: command))
     params = dict(move_up_distance_m=4.0, move_down_distance_m=2.0, n_successes=4, n_failures=10)
     term = terrain_levels_vel(CurrTerm(func=terrain_levels_vel, params=params), env)
@@ -287,12 +286,12 @@ def test_terrain_levels_vel_moves_envs_up_and_down(box_sim):
         place(sim, [(0.0, 0.0)] * NUM_ENVS, 0.3)
         term(env, nobody, **params)  # episode start
         if turn_back_after_m is not None:  # walk out, a new command, walk back: the pieces add up
-            sim.robot.root_pos_w[:, 0] += turn_back_after_m
+            sim.scene["robot"].root_pos_w[:, 0] += turn_back_after_m
             command[:, 0] += 1.0
             term(env, nobody, **params)
-            sim.robot.root_pos_w[:, 0] -= turn_back_after_m - walked_m
+            sim.scene["robot"].root_pos_w[:, 0] -= turn_back_after_m - walked_m
         else:
-            sim.robot.root_pos_w[:, 0] += walked_m
+            sim.scene["robot"].root_pos_w[:, 0] += walked_m
         return term(env, everyone, **params)  # episode end
 
     for _ in range(3):  # 10 m out and 10 - d back: every env walked more than 4 m
@@ -325,8 +324,8 @@ def test_height_scan_observation_and_terrain_relative_base_height(box_sim):
 
     sim = box_sim
     place(sim, [(0.0, 0.0), (1.25, 0.0), (0.0, -1.8), (0.0, 0.0)], 0.6)
-    sim.height_scanners["scan"].update()  # what the env does once per step
-    env = SimpleNamespace(scene={"robot": sim.robot, "scan": sim.height_scanners["scan"]})
+    sim.scene.height_scanners["scan"].update()  # what the env does once per step
+    env = SimpleNamespace(scene=sim.scene)
     scan = height_scan(env, "scan", offset_m=0.5)
     # the body is 0.6 m above the cell origin, which sits on the platform under env 0
     assert torch.allclose(scan[0], torch.full((15,), 0.6 - 0.5), atol=1e-5)

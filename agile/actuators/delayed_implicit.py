@@ -48,12 +48,11 @@ class DelayedTargetGroup(ActuatorGroup):
     was commanded.
     """
 
-    def __init__(self, name: str, cfg: DelayedImplicitActuatorCfg, joint_ids: list[int], control: newton.Control,
-                 num_envs: int, device: torch.device):
+    def __init__(self, name: str, cfg: DelayedImplicitActuatorCfg, joint_ids: list[int], coord_ids: torch.Tensor,
+                 dof_ids: torch.Tensor, control: newton.Control, num_envs: int, device: torch.device):
         if cfg.max_delay < 1:
             raise ValueError(f"actuator group '{name}': a delayed implicit group needs max_delay >= 1")
-        super().__init__(name, cfg, joint_ids, num_envs, control.joint_target_q.shape[0] // num_envs,
-                         control.joint_target_qd.shape[0] // num_envs, device, cfg.min_delay, cfg.max_delay)
+        super().__init__(name, cfg, joint_ids, coord_ids, dof_ids, num_envs, device, cfg.min_delay, cfg.max_delay)
         count = num_envs * len(joint_ids)
         self._sequential = torch.arange(count, dtype=torch.int32, device=device)
         self._seq = wp.from_torch(self._sequential, dtype=wp.uint32)

@@ -53,12 +53,11 @@ class ExplicitActuatorGroup(ActuatorGroup):
     write (domain randomisation, a new delay) reaches the actuator without a copy.
     """
 
-    def __init__(self, name: str, cfg: IdealPDActuatorCfg, joint_ids: list[int], values: dict[str, torch.Tensor],
-                 state: newton.State, control: newton.Control, computed_effort: wp.array, num_envs: int,
-                 device: torch.device):
-        super().__init__(name, cfg, joint_ids, num_envs, state.joint_q.shape[0] // num_envs,
-                         state.joint_qd.shape[0] // num_envs, device, int(getattr(cfg, "min_delay", 0)),
-                         int(getattr(cfg, "max_delay", 0)))
+    def __init__(self, name: str, cfg: IdealPDActuatorCfg, joint_ids: list[int], coord_ids: torch.Tensor,
+                 dof_ids: torch.Tensor, values: dict[str, torch.Tensor], state: newton.State, control: newton.Control,
+                 computed_effort: wp.array, num_envs: int, device: torch.device):
+        super().__init__(name, cfg, joint_ids, coord_ids, dof_ids, num_envs, device,
+                         int(getattr(cfg, "min_delay", 0)), int(getattr(cfg, "max_delay", 0)))
         n, j = num_envs, len(joint_ids)
 
         def param(key: str) -> torch.Tensor:

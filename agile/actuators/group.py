@@ -10,8 +10,10 @@ import warp as wp
 class ActuatorGroup:
     """Base of actuator groups. Subclasses create `_state_now`/`_state_next` and implement `step`."""
 
-    def __init__(self, name: str, cfg, joint_ids: list[int], num_envs: int, coords_per_world: int,
-                 dofs_per_world: int, device: torch.device, min_delay: int = 0, max_delay: int = 0):
+    def __init__(self, name: str, cfg, joint_ids: list[int], coord_ids: torch.Tensor, dof_ids: torch.Tensor,
+                 num_envs: int, device: torch.device, min_delay: int = 0, max_delay: int = 0):
+        """`coord_ids`, `dof_ids`: (num_envs * joints,) int32 world-major indices of the group's joints into
+        coordinate- and DoF-shaped Newton arrays (`Articulation.world_major_indices`)."""
         if not 0 <= min_delay <= max_delay:
             raise ValueError(f"actuator group '{name}': need 0 <= min_delay <= max_delay, got {min_delay}, {max_delay}")
         self.name = name
@@ -20,11 +22,7 @@ class ActuatorGroup:
         self.joint_ids = torch.tensor(joint_ids, dtype=torch.long, device=device)
         self.min_delay, self.max_delay = min_delay, max_delay
         n, j = num_envs, len(joint_ids)
-        world = torch.arange(n, device=device).unsqueeze(1)
-        local = self.joint_ids.unsqueeze(0)
-        # world-major indices of the group's joints into coordinate- and DoF-shaped Newton arrays
-        self._index_tensors = ((world * coords_per_world + 7 + local).flatten().to(torch.int32),
-                               (world * dofs_per_world + 6 + local).flatten().to(torch.int32))
+        self._index_tensors = (coord_ids, dof_ids)
         self._coords, self._dofs = (wp.from_torch(t, dtype=wp.uint32) for t in self._index_tensors)
         self.delay_steps = torch.full((n, j), max_delay, dtype=torch.int32, device=device) if max_delay > 0 else None
         """Per-env delay [physics steps] of each joint, (num_envs, joints); redrawn at every reset."""

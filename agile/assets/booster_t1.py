@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from agile.actuators import DelayedDCMotorCfg, ImplicitActuatorCfg
 from agile.assets.files import asset_file
-from agile.sim import RobotCfg
+from agile.sim import ArticulationCfg
 
 LEG_JOINTS = ".*Hip.*|.*Knee.*|.*Ankle.*"
 """The 12 leg joints AGILE's T1 velocity policy controls."""
@@ -50,11 +50,11 @@ ACTUATOR_SETS = {
 }
 
 
-def t1_robot_cfg(actuators: str = "delayed_dc_motor") -> RobotCfg:
+def t1_robot_cfg(actuators: str = "delayed_dc_motor") -> ArticulationCfg:
     """T1 with an actuator set by name (see ACTUATOR_SETS)."""
     if actuators not in ACTUATOR_SETS:
         raise KeyError(f"unknown T1 actuator set '{actuators}'. Sets: {sorted(ACTUATOR_SETS)}")
-    return RobotCfg(
+    return ArticulationCfg(
         model_file=asset_file("booster_t1/t1.xml"),
         init_pos_m=(0.0, 0.0, INIT_HEIGHT_M),
         init_joint_pos=dict(INIT_JOINT_POS),

@@ -5,7 +5,7 @@ from __future__ import annotations
 from agile.actuators import (DelayedDCMotorCfg, DelayedImplicitActuatorCfg, ImplicitActuatorCfg, action_scale,
                              armature_gains)
 from agile.assets.files import asset_file
-from agile.sim import RobotCfg
+from agile.sim import ArticulationCfg
 
 LEG_JOINTS = ".*_hip_.*_joint|.*_knee_joint"
 FEET_JOINTS = ".*_ankle_.*_joint"
@@ -110,11 +110,11 @@ ACTUATOR_SETS = {"delayed_dc_motor": _delayed_dc_motor_set, "armature_delayed_im
                  "implicit": _implicit_set}
 
 
-def g1_robot_cfg(actuators: str = "delayed_dc_motor") -> RobotCfg:
-    """G1 29-DoF with an actuator set by name (see ACTUATOR_SETS); collider geoms switched on (see RobotCfg)."""
+def g1_robot_cfg(actuators: str = "delayed_dc_motor") -> ArticulationCfg:
+    """G1 29-DoF with an actuator set by name (see ACTUATOR_SETS); collider geoms switched on (see ArticulationCfg)."""
     if actuators not in ACTUATOR_SETS:
         raise KeyError(f"unknown G1 actuator set '{actuators}'. Sets: {sorted(ACTUATOR_SETS)}")
-    return RobotCfg(
+    return ArticulationCfg(
         model_file=asset_file("unitree_g1/g1_mjx.xml"),
         init_pos_m=(0.0, 0.0, INIT_HEIGHT_M),
         init_joint_pos=dict(INIT_JOINT_POS),

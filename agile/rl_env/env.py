@@ -11,21 +11,21 @@ from tensordict import TensorDict
 
 from agile.rl_env.managers import (ActionManager, CommandManager, CurriculumManager, EventManager, ObservationManager,
                                    RewardManager, TerminationManager)
-from agile.sim import RobotCfg, SimCfg, Simulation
+from agile.sim import SceneCfg, SimCfg, Simulation
 from agile.utils.config import ConfigError, apply_overrides, configclass, load_entry_point
 
 
 @configclass
 class ManagerBasedRLEnvCfg:
-    """Top-level env config; a task file fills the manager groups."""
+    """Top-level env config; a task file fills the scene and the manager groups."""
 
     num_envs: int = 4096
     decimation: int = 4
     """Physics steps per env (policy) step."""
     episode_length_s: float = 20.0
     seed: int = 42
+    scene: SceneCfg = SceneCfg()
     sim: SimCfg = SimCfg()
-    robot: RobotCfg = RobotCfg()
     commands: object = None
     actions: object = None
     observations: object = None
@@ -116,15 +116,15 @@ class ManagerBasedRLEnv(gym.Env):
         self.max_episode_length_s = cfg.episode_length_s
         self.max_episode_length = math.ceil(cfg.episode_length_s / self.step_dt)
 
-        self.sim = Simulation(cfg.sim, cfg.robot, cfg.num_envs, device, self.step_dt)
+        try:
+            self.sim = Simulation(cfg.sim, cfg.scene, cfg.num_envs, device, self.step_dt)
+        except ConfigError as err:
+            raise ConfigError(f"task '{self.task_name}': {err}") from None
         self.device = self.sim.device
         self.common_step_counter = torch.zeros((), dtype=torch.long, device=self.device)
         """Env steps since construction (all envs together), as a device tensor."""
-        self.robot = self.sim.robot
-        self.scene = {"robot": self.robot}
-        if self.sim.contact_sensor is not None:
-            self.scene["contact_forces"] = self.sim.contact_sensor  # Isaac Lab's name for it
-        self.scene.update(self.sim.height_scanners)
+        self.scene = self.sim.scene
+        """Entities and sensors by name: `env.scene["robot"]`, `env.scene["contact_forces"]`."""
         self.env_origins = self.sim.env_origins
         self.episode_length_buf = torch.zeros(self.num_envs, dtype=torch.long, device=self.device)
         self.reset_buf = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
@@ -216,26 +216,14 @@ class ManagerBasedRLEnv(gym.Env):
         obs, reward, terminated, time_outs = self._graph_outputs
         return obs.clone(), reward.clone(), terminated.clone(), time_outs.clone()
 
-    def _update_height_scanners(self) -> None:
-        # once per step, after the robot's state: several terms read the same rays
-        for scanner in self.sim.height_scanners.values():
-            scanner.update()
-
     def _step(self, action: torch.Tensor):
         self.action_manager.process_action(action)
         self.action_manager.apply_action()
         self.sim.step(self.cfg.decimation, graph=not self._capturing)
         self.episode_length_buf += 1
         self.common_step_counter += 1
-        self.robot.update()
-        self._update_height_scanners()
-        self.robot.update_accelerations()
-        self.robot.compute_pd_torque()
-
-        robot = self.robot
-        state_ok = torch.isfinite(robot.root_pose_w).all(-1) & torch.isfinite(robot.root_com_vel_w).all(-1) & \
-            torch.isfinite(robot.joint_pos).all(-1) & (robot.joint_vel.abs() <= self.cfg.max_joint_speed_rad_s).all(-1)
-        torch.logical_not(state_ok, out=self.sim_unstable)
+        self.scene.update_after_physics()
+        torch.logical_not(self.scene.state_is_valid(self.cfg.max_joint_speed_rad_s), out=self.sim_unstable)
 
         self.reset_buf[:] = self.termination_manager.compute() | self.sim_unstable
         terminated = self.termination_manager.terminated | self.sim_unstable
@@ -268,16 +256,10 @@ class ManagerBasedRLEnv(gym.Env):
         self._log.write(log, hold_unless=any_reset)
 
         self.sim.reset_worlds(env_mask)
-        self.sim.reset_actuators(env_mask)
-        robot = self.robot
-        default_pose = robot.default_root_pose.clone()
-        default_pose[:, :3] += self.env_origins
-        robot.write_root_state(default_pose, torch.zeros_like(robot.root_com_vel_w), env_mask)
-        robot.write_joint_state(robot.default_joint_pos, robot.default_joint_vel, env_mask)
+        self.scene.reset_to_default(self.env_origins, env_mask)
         self.event_manager.apply("reset", env_mask)
         self.sim.forward(env_mask)
-        robot.update()
-        self._update_height_scanners()
+        self.scene.update()
 
         for manager in (self.action_manager, self.command_manager, self.observation_manager, self.event_manager):
             manager.reset(env_mask)

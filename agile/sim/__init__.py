@@ -1,10 +1,16 @@
-"""The Newton world: building, stepping, state views, resets."""
+"""The Newton world: the scene's entities replicated into every world, stepping, state views, resets."""
 
-from agile.sim.articulation import Articulation
 from agile.sim.contact_sensor import ContactSensor
+from agile.sim.entities import Articulation, Entity, RigidObject
 from agile.sim.names import resolve_names, resolve_values
-from agile.sim.sim_cfg import ContactSensorCfg, RobotCfg, SimCfg, SolverCfg
-from agile.sim.simulation import Simulation, build_robot, env_origins_grid
+from agile.sim.scene import Scene
+from agile.sim.scene_cfg import (GROUND, ArticulationCfg, BoxShapeCfg, CapsuleShapeCfg, ContactSensorCfg,
+                                 CylinderShapeCfg, HeightScannerCfg, MeshFileShapeCfg, ModelFileShapeCfg,
+                                 RigidObjectCfg, SceneCfg, SphereShapeCfg)
+from agile.sim.sim_cfg import SimCfg, SolverCfg
+from agile.sim.simulation import Simulation, env_origins_grid
 
-__all__ = ["Articulation", "ContactSensor", "ContactSensorCfg", "RobotCfg", "SimCfg", "Simulation", "SolverCfg",
-           "build_robot", "env_origins_grid", "resolve_names", "resolve_values"]
+__all__ = ["GROUND", "Articulation", "ArticulationCfg", "BoxShapeCfg", "CapsuleShapeCfg", "ContactSensor",
+           "ContactSensorCfg", "CylinderShapeCfg", "Entity", "HeightScannerCfg", "MeshFileShapeCfg",
+           "ModelFileShapeCfg", "RigidObject", "RigidObjectCfg", "Scene", "SceneCfg", "SimCfg", "Simulation",
+           "SolverCfg", "env_origins_grid", "resolve_names", "resolve_values"]

@@ -1,4 +1,5 @@
-"""Net contact forces on robot bodies, their recent history, and air/contact times (Isaac Lab ContactSensor).
+"""Net contact forces on an entity's bodies, their recent history, air/contact times, and optionally the forces
+from one other entity alone (Isaac Lab ContactSensor with `filter_prim_paths_expr`).
 
 Forces come from Newton: SolverMuJoCo writes the force of every contact of a physics step (the `CONTACT_F`
 solver observable) against a `newton.Contacts` buffer (MuJoCo's own contacts exported into it, or those of
@@ -13,8 +14,9 @@ import newton
 import torch
 import warp as wp
 
+from agile.sim.entities.entity import Entity
 from agile.sim.names import resolve_names
-from agile.sim.sim_cfg import ContactSensorCfg
+from agile.sim.scene_cfg import ContactSensorCfg
 
 
 @wp.kernel
@@ -58,7 +60,7 @@ def _update_contact_buffers(
 
 
 class ContactSensor:
-    """Contact state of selected bodies of the robot in every world, refreshed every physics step.
+    """Contact state of selected bodies of one entity in every world, refreshed every physics step.
 
     Torch views (zero-copy, world frame, forces in N, velocities in m/s, times in s):
     - `net_forces_w` (N, B, 3): net contact force of the last physics step.
@@ -66,14 +68,19 @@ class ContactSensor:
     - `lin_vel_w_history` (N, H, B, 3): the bodies' COM linear velocity at the same steps (for touchdown speed).
     - `current_air_time_s`, `current_contact_time_s`, `last_air_time_s`, `last_contact_time_s` (N, B):
       only with `track_air_time`.
+    - `force_matrix_w` (N, B, M, 3): with a filter, the force on each body from each of the M filter shapes
+      (the filter entity's shapes on its selected bodies, or the one ground shape) at the last physics step.
     A body is in contact when |net force| > `force_threshold_n`.
     """
 
     def __init__(self, cfg: ContactSensorCfg, model: newton.Model, solver: newton.solvers.SolverMuJoCo,
-                 contacts: newton.Contacts, robot_body_names: list[str], physics_dt_s: float):
+                 contacts: newton.Contacts, entity: Entity, filter_shape_ids: list[int] | None, physics_dt_s: float,
+                 solver_observables=None):
+        """`filter_shape_ids`: global shape indices of the filter (all worlds), or None for net forces only.
+        `solver_observables`: another sensor's, to share (the solver fills one set per step); None makes them."""
         if cfg.history_length < 1:
-            raise ValueError(f"contact sensor: history_length must be >= 1, got {cfg.history_length}")
-        local_ids, self.body_names = resolve_names(cfg.body_names, robot_body_names, "body")
+            raise ValueError(f"history_length must be >= 1, got {cfg.history_length}")
+        local_ids, self.body_names = entity.find_bodies(cfg.body_names)
         self.cfg = cfg
         self.num_envs = n = model.world_count
         self.num_bodies = b = len(local_ids)
@@ -85,13 +92,15 @@ class ContactSensor:
         self._device = model.device
 
         world_start = model.body_world_start.numpy()
-        global_ids = [int(world_start[w]) + i for w in range(n) for i in local_ids]
+        first = entity.layout.bodies.start
+        global_ids = [int(world_start[w]) + first + i for w in range(n) for i in local_ids]
         self._newton_sensor = newton.sensors.SensorContact(model, sensing_bodies=global_ids,
+                                                           counterpart_shapes=filter_shape_ids,
                                                            request_contact_attributes=False)
         if list(self._newton_sensor.sensing_indices) != global_ids:
             raise RuntimeError("newton SensorContact reordered the sensing bodies; rows would not match (env, body)")
-        self.solver_observables = solver.observables(kinds=self._newton_sensor.solver_observable_kinds,
-                                                     contacts=contacts)
+        self.solver_observables = solver_observables or solver.observables(
+            kinds=self._newton_sensor.solver_observable_kinds, contacts=contacts)
         """Pass to `solver.step` so that it fills the contact forces."""
         self._sensing_body_ids = wp.array(global_ids, dtype=wp.int32, device=self._device)
 
@@ -104,6 +113,10 @@ class ContactSensor:
         self.lin_vel_w_history = wp.to_torch(self._vel_history)
         self._current_air, self._current_contact, self._last_air, self._last_contact = (
             wp.to_torch(a) for a in self._times)
+        self.force_matrix_w: torch.Tensor | None = None
+        if filter_shape_ids is not None:
+            matrix = self._newton_sensor.force_matrix
+            self.force_matrix_w = wp.to_torch(matrix).view(n, b, matrix.shape[1], 3)
 
     # -- selection ------------------------------------------------------------------------------
 
@@ -164,3 +177,5 @@ class ContactSensor:
         self.lin_vel_w_history.masked_fill_(m.view(-1, 1, 1, 1), 0.0)
         for times in (self._current_air, self._current_contact, self._last_air, self._last_contact):
             times.masked_fill_(m, 0.0)
+        if self.force_matrix_w is not None:
+            self.force_matrix_w.masked_fill_(m.view(-1, 1, 1, 1), 0.0)

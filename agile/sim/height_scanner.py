@@ -1,4 +1,4 @@
-"""Height scan: a yaw-aligned grid of rays cast straight down from a robot body onto the terrain.
+"""Height scan: a yaw-aligned grid of rays cast straight down from an entity's body onto the terrain.
 
 The terrain is a height field, so a vertical ray hits it at the surface height under the ray, which is a
 lookup with MuJoCo's triangulation of the grid: no ray marching, no scene query, no host sync. The result
@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import torch
 
-from agile.sim.articulation import Articulation
-from agile.sim.sim_cfg import HeightScannerCfg
+from agile.sim.entities.entity import Entity
+from agile.sim.scene_cfg import HeightScannerCfg
 from agile.utils.math import yaw_from_quat
 
 
@@ -54,7 +54,7 @@ def grid_pattern(size_m: tuple[float, float], resolution_m: float, device) -> to
 
 
 class HeightScanner:
-    """Terrain heights under a ray grid that follows one robot body's position and yaw.
+    """Terrain heights under a ray grid that follows one body's position and yaw.
 
     Buffers, refreshed by `update()` in place (fixed shapes, for the captured step):
     - `pos_w` (N, 3): the sensor position, the body's position [m].
@@ -63,26 +63,26 @@ class HeightScanner:
     - `base_height_m` (N,): body height above the mean hit height [m] (AGILE base_height_from_sensor).
     """
 
-    def __init__(self, cfg: HeightScannerCfg, robot: Articulation, terrain: TerrainHeights | None):
-        ids, names = robot.find_bodies(cfg.body_name)
+    def __init__(self, cfg: HeightScannerCfg, entity: Entity, terrain: TerrainHeights | None):
+        ids, names = entity.find_bodies(cfg.body_name)
         if len(ids) != 1:
             raise ValueError(f"height scanner body_name '{cfg.body_name}' must match one body, matched {names}")
         self.cfg = cfg
         self.body_id = ids[0]
-        self.robot = robot
+        self.entity = entity
         self.terrain = terrain
-        device = robot.device
+        device = entity.device
         offset = torch.tensor(cfg.offset_xy_m, dtype=torch.float32, device=device)
         self.ray_offsets_b = grid_pattern(cfg.size_m, cfg.resolution_m, device) + offset
         self.num_rays = self.ray_offsets_b.shape[0]
-        n = robot.num_envs
+        n = entity.num_envs
         self.pos_w = torch.zeros(n, 3, device=device)
         self.ray_xy_w = torch.zeros(n, self.num_rays, 2, device=device)
         self.hit_z_m = torch.zeros(n, self.num_rays, device=device)
         self.base_height_m = torch.zeros(n, device=device)
 
     def update(self) -> None:
-        pose = self.robot.body_pose_w[:, self.body_id]
+        pose = self.entity.body_pose_w[:, self.body_id]
         yaw = yaw_from_quat(pose[:, 3:7]).unsqueeze(1)
         cos, sin = torch.cos(yaw), torch.sin(yaw)
         dx, dy = self.ray_offsets_b[:, 0], self.ray_offsets_b[:, 1]

@@ -1,30 +1,24 @@
-"""The Newton world: N replicated robots on a ground plane, stepped by SolverMuJoCo."""
+"""The Newton world: N replicated worlds of the scene's entities on a ground plane or terrain, stepped by
+SolverMuJoCo."""
 
 from __future__ import annotations
 
 import contextlib
 import math
-from pathlib import Path
 
 import mujoco_warp
 import newton
 import torch
 import warp as wp
 
-from agile.actuators import DelayedImplicitActuatorCfg, DelayedTargetGroup, ExplicitActuatorGroup, is_explicit
-from agile.sim.articulation import Articulation
+from agile.actuators import DelayedTargetGroup, ExplicitActuatorGroup
 from agile.sim.contact_sensor import ContactSensor
 from agile.sim.height_scanner import HeightScanner, TerrainHeights
-from agile.sim.names import resolve_names, resolve_values
-from agile.sim.sim_cfg import RobotCfg, SimCfg
+from agile.sim.scene import Scene, build_world_template, entity_of, filter_shape_ids, make_entities
+from agile.sim.scene_cfg import SceneCfg
+from agile.sim.sim_cfg import SimCfg
 from agile.sim.terrain import TerrainData, load_or_generate_terrain
-
-USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
-
-
-def short_name(label: str) -> str:
-    return label.split("/")[-1]
-
+from agile.utils.config import ConfigError
 
 def env_origins_grid(num_envs: int, spacing_m: float, device) -> torch.Tensor:
     """(N, 3) origins on a square grid centred on the world origin."""
@@ -37,90 +31,6 @@ def env_origins_grid(num_envs: int, spacing_m: float, device) -> torch.Tensor:
     return origins
 
 
-def build_robot(cfg: RobotCfg, gravity_mps2: float) -> tuple[newton.ModelBuilder, list[str], list[str]]:
-    """One robot in its own builder, with actuator settings applied per DoF. Returns (builder, joints, bodies)."""
-    path = Path(cfg.model_file)
-    if not path.is_file():
-        raise FileNotFoundError(f"robot model file not found: {path}")
-    builder = newton.ModelBuilder(gravity=(0.0, 0.0, gravity_mps2))
-    newton.solvers.SolverMuJoCo.register_custom_attributes(builder)
-    suffix = path.suffix.lower()
-    if suffix == ".xml":
-        builder.add_mjcf(str(path), floating=True, enable_self_collisions=cfg.self_collisions,
-                         parse_visuals=cfg.parse_visuals, collider_classes=tuple(cfg.mjcf_collider_classes))
-    elif suffix == ".urdf":
-        builder.add_urdf(str(path), floating=True, enable_self_collisions=cfg.self_collisions)
-    elif suffix in USD_SUFFIXES:
-        builder.add_usd(str(path), floating=True, enable_self_collisions=cfg.self_collisions)
-    else:
-        raise ValueError(f"unsupported robot model file '{path}': expected .xml (MJCF), .urdf or {USD_SUFFIXES}")
-    if builder.joint_count == 0 or builder.joint_type[0] != newton.JointType.FREE:
-        raise ValueError(f"'{path}' did not import as one floating-base articulation")
-
-    collide = int(newton.ShapeFlags.COLLIDE_SHAPES)
-    colliders = [i for i in range(builder.shape_count) if builder.shape_flags[i] & collide]
-    attrs = builder.custom_attributes
-    if cfg.enable_all_colliders:
-        for i in colliders:
-            if builder.shape_collision_group[i] == 0:
-                builder.shape_collision_group[i] = 1
-            for key in ("mujoco:contype", "mujoco:conaffinity"):
-                if key in attrs:
-                    attrs[key].values[i] = 1
-    if cfg.contact_dim is not None and "mujoco:condim" in attrs:
-        for i in colliders:
-            attrs["mujoco:condim"].values[i] = cfg.contact_dim
-
-    joint_names = dof_names(builder)
-    body_names = [short_name(label) for label in builder.body_label]
-
-    # default root pose and joint positions (coordinates: 7 root + one per hinge)
-    builder.joint_q[0:3] = list(cfg.init_pos_m)
-    builder.joint_q[3:7] = [0.0, 0.0, 0.0, 1.0]
-    for j, value in resolve_values(cfg.init_joint_pos, joint_names).items():
-        builder.joint_q[7 + j] = value
-        builder.joint_target_q[7 + j] = value
-    for group_name, act in cfg.actuators.items():
-        try:
-            apply_actuator_to_builder(builder, act, joint_names)
-        except ValueError as err:
-            raise ValueError(f"actuator group '{group_name}': {err}") from None
-    return builder, joint_names, body_names
-
-
-def dof_names(builder: newton.ModelBuilder) -> list[str]:
-    """One name per non-root DoF: the joint's name, or "<joint>:<k>" for a joint with several DoFs
-    (Newton merges MJCF hinges on one body into one joint), as Newton's selection API names them."""
-    names = []
-    for j in range(1, builder.joint_count):
-        name = short_name(builder.joint_label[j])
-        count = sum(builder.joint_dof_dim[j])
-        names.extend([name] if count == 1 else [f"{name}:{k}" for k in range(count)])
-    return names
-
-
-def apply_actuator_to_builder(builder: newton.ModelBuilder, act, joint_names: list[str]) -> None:
-    """Write an actuator group's gains and limits into the builder's per-DoF lists (DoF 6+j is joint j)."""
-    ids, names = resolve_names(act.joint_names_expr, joint_names)
-
-    def values(value) -> dict[int, float]:
-        if value is None:
-            return {}
-        if isinstance(value, dict):
-            return {ids[k]: v for k, v in resolve_values(value, names).items()}
-        return {i: float(value) for i in ids}
-
-    # explicit actuators compute torques themselves (joint_f): the solver must not add its own PD
-    mode = newton.JointTargetMode.EFFORT if is_explicit(act) else newton.JointTargetMode.POSITION
-    for i in ids:
-        builder.joint_target_mode[6 + i] = int(mode)
-    for field_name, attr in (("stiffness", "joint_target_ke"), ("damping", "joint_target_kd"),
-                             ("effort_limit", "joint_effort_limit"), ("velocity_limit", "joint_velocity_limit"),
-                             ("armature", "joint_armature"), ("friction", "joint_friction")):
-        for i, v in values(getattr(act, field_name)).items():
-            getattr(builder, attr)[6 + i] = v
-
-
 def terrain_heightfield(terrain: TerrainData) -> newton.Heightfield:
     """The terrain as a Newton height field centred on the world origin (rows of `data` run along y)."""
     nx, ny = terrain.heights_m.shape
@@ -131,10 +41,11 @@ def terrain_heightfield(terrain: TerrainData) -> newton.Heightfield:
 class Simulation:
     """Builds the replicated world and steps it; the decimation loop is one captured graph."""
 
-    def __init__(self, cfg: SimCfg, robot_cfg: RobotCfg, num_envs: int, device: str, step_dt_s: float):
+    def __init__(self, cfg: SimCfg, scene_cfg: SceneCfg, num_envs: int, device: str, step_dt_s: float):
         if num_envs < 1:
             raise ValueError(f"num_envs must be >= 1, got {num_envs}")
         self.cfg = cfg
+        self.scene_cfg = scene_cfg
         self.num_envs = num_envs
         self.wp_device = wp.get_device(device)
         self.device = torch.device(wp.device_to_torch(self.wp_device))
@@ -144,20 +55,21 @@ class Simulation:
             # and graph capture runs on a non-default stream
             torch.cuda.set_stream(wp.stream_to_torch(wp.get_stream(self.wp_device)))
 
-        robot_builder, joint_names, body_names = build_robot(robot_cfg, cfg.gravity_mps2)
-        scene = newton.ModelBuilder(gravity=(0.0, 0.0, cfg.gravity_mps2))
-        newton.solvers.SolverMuJoCo.register_custom_attributes(scene)
-        scene.replicate(robot_builder, copy_count=num_envs, spacing=(0.0, 0.0, 0.0))
-        ground_cfg = newton.ModelBuilder.ShapeConfig(mu=cfg.ground_friction)
+        template, layouts, names = build_world_template(scene_cfg, cfg.gravity_mps2)
+        world = newton.ModelBuilder(gravity=(0.0, 0.0, cfg.gravity_mps2))
+        newton.solvers.SolverMuJoCo.register_custom_attributes(world)
+        world.replicate(template, copy_count=num_envs, spacing=(0.0, 0.0, 0.0))
+        ground_cfg = newton.ModelBuilder.ShapeConfig(mu=scene_cfg.ground_friction)
         self.terrain: TerrainData | None = None
-        if cfg.terrain is None:
-            scene.add_ground_plane(cfg=ground_cfg)
+        if scene_cfg.terrain is None:
+            ground_shape = world.add_ground_plane(cfg=ground_cfg)
         else:
-            self.terrain = load_or_generate_terrain(cfg.terrain)
-            scene.add_shape_heightfield(heightfield=terrain_heightfield(self.terrain), cfg=ground_cfg, label="terrain")
-        self.model = scene.finalize(device=self.wp_device)
+            self.terrain = load_or_generate_terrain(scene_cfg.terrain)
+            ground_shape = world.add_shape_heightfield(heightfield=terrain_heightfield(self.terrain), cfg=ground_cfg,
+                                                       label="terrain")
+        self.model = world.finalize(device=self.wp_device)
         if self.terrain is not None:
-            self.model.shape_gap.fill_(cfg.terrain_contact_gap_m)
+            self.model.shape_gap.fill_(scene_cfg.terrain_contact_gap_m)
         s = cfg.solver
         self.solver = newton.solvers.SolverMuJoCo(
             self.model, iterations=s.iterations, ls_iterations=s.ls_iterations, njmax=s.njmax, nconmax=s.nconmax,
@@ -179,60 +91,55 @@ class Simulation:
         self.control = self.model.control()
         self.computed_effort = wp.zeros_like(self.state.joint_qd)
         """Explicit actuators' torque before clipping, per DoF (their clipped torque is control.joint_f)."""
-        self.robot = Articulation(self.model, self.state, self.control, joint_names, body_names, step_dt_s,
-                                  self.computed_effort, robot_cfg.soft_joint_pos_limit_factor)
-        self.actuator_groups: list[ExplicitActuatorGroup | DelayedTargetGroup] = []
-        """Per-physics-step actuator work: explicit torque models and delayed implicit targets."""
-        for name, act in robot_cfg.actuators.items():
-            if isinstance(act, DelayedImplicitActuatorCfg):
-                ids, _ = self.robot.find_joints(act.joint_names_expr)
-                self.actuator_groups.append(DelayedTargetGroup(name, act, ids, self.control, num_envs, self.device))
-                continue
-            if not is_explicit(act):
-                continue
-            ids, _ = self.robot.find_joints(act.joint_names_expr)
-            values = {"stiffness": self.robot.joint_stiffness[0, ids], "damping": self.robot.joint_damping[0, ids],
-                      "effort_limit": self.robot.joint_effort_limit[0, ids],
-                      "velocity_limit": self.robot.joint_vel_limit[0, ids]}
-            if getattr(act, "saturation_effort", None) is not None:
-                values["saturation_effort"] = torch.tensor(
-                    [v for _, v in sorted(resolve_values(act.saturation_effort,
-                                                         [joint_names[i] for i in ids]).items())])
-            elif hasattr(act, "saturation_effort"):
-                raise ValueError(f"actuator group '{name}': a DC motor needs saturation_effort")
-            self.actuator_groups.append(ExplicitActuatorGroup(
-                name, act, ids, values, self.state, self.control, self.computed_effort, num_envs, self.device))
-        self.robot.set_explicit_joints([i for g in self.actuator_groups if isinstance(g, ExplicitActuatorGroup)
-                                        for i in g.joint_id_list])
-        self.contact_sensor: ContactSensor | None = None
-        if cfg.contact_sensor is not None:
-            # the solver writes each step's contact forces against the contacts it steps with: the pipeline's on a
-            # terrain, else a buffer that MuJoCo's own collision detection is exported into
-            contacts = self.contacts if self.contacts is not None else newton.Contacts(
-                self.solver.get_max_contact_count(), 0, device=self.wp_device)
-            try:
-                self.contact_sensor = ContactSensor(cfg.contact_sensor, self.model, self.solver, contacts,
-                                                    body_names, cfg.physics_dt_s)
-            except ValueError as err:
-                raise ValueError(f"contact sensor: {err}") from None
-        self.env_origins = env_origins_grid(num_envs, cfg.env_spacing_m, self.device)
+        entities = make_entities(scene_cfg, self.model, self.state, self.control, layouts, names, step_dt_s,
+                                 self.computed_effort)
+        self.actuator_groups: list[ExplicitActuatorGroup | DelayedTargetGroup] = [
+            group for entity in entities.values() for group in getattr(entity, "actuator_groups", [])]
+        """Per-physics-step actuator work of every articulation: explicit torque models and delayed targets."""
+        contact_sensors = self._make_contact_sensors(scene_cfg, entities, ground_shape)
+        self.env_origins = env_origins_grid(num_envs, scene_cfg.env_spacing_m, self.device)
         """(N, 3) spawn point of each env; changed in place when an env changes terrain level."""
         if self.terrain is not None:
-            self._init_terrain_levels(cfg.max_init_terrain_level)
+            self._init_terrain_levels(scene_cfg.max_init_terrain_level)
         terrain_heights = None if self.terrain is None else TerrainHeights(
             torch.from_numpy(self.terrain.heights_m).to(self.device), self.terrain.origin_xy_m,
             self.terrain.horizontal_scale_m)
-        self.height_scanners: dict[str, HeightScanner] = {}
-        for name, scanner_cfg in cfg.height_scanners.items():
+        height_scanners: dict[str, HeightScanner] = {}
+        for name, scanner_cfg in scene_cfg.height_scanners.items():
+            where = f"scene.height_scanners.{name}"
+            entity = entity_of(entities, scanner_cfg.entity, f"{where}.entity")
             try:
-                self.height_scanners[name] = HeightScanner(scanner_cfg, self.robot, terrain_heights)
+                height_scanners[name] = HeightScanner(scanner_cfg, entity, terrain_heights)
             except ValueError as err:
-                raise ValueError(f"height scanner '{name}': {err}") from None
+                raise ConfigError(f"{where}: {err}") from None
+        self.scene = Scene(entities, contact_sensors, height_scanners)
         # world mask for solver.reset: one entry per world plus the global world (-1), which stays False
         self._world_mask = torch.zeros(num_envs + 1, dtype=torch.bool, device=self.device)
         self._world_mask_wp = wp.from_torch(self._world_mask, dtype=wp.bool)
         self._fk_mask_wp = wp.from_torch(self._world_mask[:num_envs], dtype=wp.bool)
+        self._body_wrench_w = wp.to_torch(self.state.body_f).view(num_envs, -1, 6)
         self._graphs: dict[int, object] = {}
+
+    def _make_contact_sensors(self, scene_cfg: SceneCfg, entities: dict, ground_shape: int) -> dict:
+        # the solver writes each step's contact forces against the contacts it steps with: the pipeline's on a
+        # terrain, else a buffer that MuJoCo's own collision detection is exported into; all sensors share them
+        sensors: dict[str, ContactSensor] = {}
+        if not scene_cfg.contact_sensors:
+            return sensors
+        self.sensor_contacts = self.contacts if self.contacts is not None else newton.Contacts(
+            self.solver.get_max_contact_count(), 0, device=self.wp_device)
+        self.sensor_observables = None
+        for name, sensor_cfg in scene_cfg.contact_sensors.items():
+            where = f"scene.contact_sensors.{name}"
+            entity = entity_of(entities, sensor_cfg.entity, f"{where}.entity")
+            shapes = filter_shape_ids(entities, sensor_cfg, self.model, ground_shape, where)
+            try:
+                sensors[name] = ContactSensor(sensor_cfg, self.model, self.solver, self.sensor_contacts, entity,
+                                              shapes, self.cfg.physics_dt_s, self.sensor_observables)
+            except ValueError as err:
+                raise ConfigError(f"{where}: {err}") from None
+            self.sensor_observables = sensors[name].solver_observables
+        return sensors
 
     @property
     def use_graph(self) -> bool:
@@ -241,18 +148,19 @@ class Simulation:
         return self.wp_device.is_cpu or wp.is_mempool_enabled(self.wp_device)
 
     def _physics_loop(self, num_steps: int) -> None:
-        sensor = self.contact_sensor
+        sensors = list(self.scene.contact_sensors.values())
         for substep in range(num_steps):
             for group in self.actuator_groups:
                 group.step(self.physics_dt_s, substep, num_steps)
             if self.collision_pipeline is not None:
                 self.collision_pipeline.collide(self.state, self.contacts)
-            if sensor is None:
+            if not sensors:
                 self.solver.step(self.state, self.state, self.control, self.contacts, self.physics_dt_s)
             else:
-                self.solver.step(self.state, self.state, self.control, sensor.contacts, self.physics_dt_s,
-                                 observables=sensor.solver_observables)
-                sensor.update(self.state)
+                self.solver.step(self.state, self.state, self.control, self.sensor_contacts, self.physics_dt_s,
+                                 observables=self.sensor_observables)
+                for sensor in sensors:
+                    sensor.update(self.state)
         for group in self.actuator_groups:
             group.after_physics()
 
@@ -283,8 +191,8 @@ class Simulation:
         all_envs = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
         for group in self.actuator_groups:
             group.reset(all_envs)
-        if self.contact_sensor is not None:
-            self.contact_sensor.reset(all_envs)
+        for sensor in self.scene.contact_sensors.values():
+            sensor.reset(all_envs)
         self._graphs[num_steps] = capture.graph
         return capture.graph
 
@@ -295,17 +203,17 @@ class Simulation:
         return wp.to_torch(self.solver.mjw_data.solver_niter)[: self.num_envs]
 
     def reset_worlds(self, mask: torch.Tensor) -> None:
-        """Clear the solver's per-world internals (warm start, applied forces) and the contact sensor's
+        """Clear the solver's per-world internals (warm start, applied forces) and the contact sensors'
         histories and clocks where mask (N,) is True.
 
-        Joint state is then written by the caller through the Articulation and made consistent by `forward`.
+        Entity states are then written by the caller through the entities and made consistent by `forward`.
         """
         self._world_mask[: self.num_envs].copy_(mask)
         self.solver.reset(self.state, world_mask=self._world_mask_wp)
         # the solver re-applies state.body_f at every step: a disturbance must not outlive its episode
-        self.robot.body_wrench_w.masked_fill_(mask.view(-1, 1, 1), 0.0)
-        if self.contact_sensor is not None:
-            self.contact_sensor.reset(mask)
+        self._body_wrench_w.masked_fill_(mask.view(-1, 1, 1), 0.0)
+        for sensor in self.scene.contact_sensors.values():
+            sensor.reset(mask)
 
     # -- terrain levels ------------------------------------------------------------------------------
 
@@ -347,11 +255,6 @@ class Simulation:
         finally:
             self.actuator_groups = groups
             self._graphs.clear()
-
-    def reset_actuators(self, mask: torch.Tensor) -> None:
-        """Clear actuator state (delay buffers) and draw new per-env delays where mask (N,) is True."""
-        for group in self.actuator_groups:
-            group.reset(mask)
 
     def forward(self, mask: torch.Tensor | None = None) -> None:
         """Recompute body poses from joint coordinates (forward kinematics), in the worlds of `mask`."""

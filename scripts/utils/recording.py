@@ -89,4 +89,4 @@ class VideoRecorder(CameraVideo):
         self.env_index = env_index
 
     def record(self, env, time_s: float | None = None) -> None:
-        self.write_frame(env.sim.state, env.robot.root_pos_w[self.env_index].detach().cpu().numpy())
+        self.write_frame(env.sim.state, env.scene[env.action_manager.policy_entity_name()].root_pos_w[self.env_index].detach().cpu().numpy())

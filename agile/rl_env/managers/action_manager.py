@@ -47,6 +47,15 @@ class ActionManager:
             raise KeyError(f"no action term '{name}'. Terms: {self.active_terms}")
         return self.terms[name]
 
+    def policy_entity_name(self) -> str:
+        """The one articulation the policy's action terms drive (`asset_name`): the robot whose joints an
+        exported policy and the symmetry functions describe."""
+        names = sorted({term.cfg.asset_name for term in self.terms.values() if term.action_dim > 0})
+        if len(names) != 1:
+            raise ValueError(f"the policy's action terms drive {len(names)} entities {names}; exports and symmetry "
+                             f"need exactly one")
+        return names[0]
+
     def process_action(self, action: torch.Tensor) -> None:
         if action.shape != self.action.shape:
             raise ValueError(f"action shape {tuple(action.shape)} != expected {tuple(self.action.shape)}")

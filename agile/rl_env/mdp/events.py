@@ -5,7 +5,6 @@ from __future__ import annotations
 import functools
 
 import newton
-import numpy as np
 import torch
 import warp as wp
 
@@ -119,18 +118,16 @@ def randomize_rigid_body_material(env, env_mask: torch.Tensor, static_friction_r
     Each shape of each world gets a random bucket. MuJoCo has one sliding friction coefficient per geom: it
     gets the bucket's dynamic friction (the one that limits a slipping foot). A MuJoCo contact uses the larger
     coefficient of its two geoms, so the robot's value decides only on ground whose friction is at most the
-    lower end of the range (set `sim.ground_friction` accordingly). Restitution is written to
+    lower end of the range (set `scene.ground_friction` accordingly). Restitution is written to
     `model.shape_material_restitution` for Newton's other solvers; MuJoCo contacts do not model it.
     """
     _forbid_capture("randomize_rigid_body_material")
-    robot = env.scene[asset_cfg.name]
+    entity = env.scene[asset_cfg.name]
     model = env.sim.model
-    n, device = env.num_envs, env.device
-    shape_world = model.shape_world.numpy()
-    robot_shapes = np.flatnonzero(shape_world >= 0).reshape(n, -1)  # replicated worlds: same shapes, world-major
-    local_body = model.shape_body.numpy()[robot_shapes[0]]
-    selected = np.isin(local_body, index_list(asset_cfg.body_ids, robot.num_bodies))
-    shape_ids = torch.as_tensor(robot_shapes[:, selected], dtype=torch.long, device=device)
+    device = env.device
+    selected = torch.isin(entity.shape_body, torch.tensor(index_list(asset_cfg.body_ids, entity.num_bodies),
+                                                          device=device))
+    shape_ids = entity.shape_ids[:, selected]
 
     buckets = torch.stack([_uniform(r, num_buckets, device)
                            for r in (static_friction_range, dynamic_friction_range, restitution_range)], dim=-1)
@@ -196,7 +193,7 @@ def randomize_actuator_gains(env, env_mask: torch.Tensor,
         selected = gains[:, ids]
         new = _apply_operation(selected, _uniform(params, selected.shape, env.device), operation).clamp(min=0.0)
         gains[:, ids] = torch.where(m, new, selected)
-    for group in env.sim.actuator_groups:
+    for group in robot.actuator_groups:
         if isinstance(group, ExplicitActuatorGroup):
             group.stiffness.copy_(robot.joint_stiffness[:, group.joint_ids])
             group.damping.copy_(robot.joint_damping[:, group.joint_ids])

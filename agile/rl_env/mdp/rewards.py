@@ -105,7 +105,7 @@ def joint_deviation_l1(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
 
 def joint_pos_limits(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
     """Sum of how far joints are outside their soft position limits [rad] (Isaac Lab: the hard limits shrunk
-    by `RobotCfg.soft_joint_pos_limit_factor`)."""
+    by `ArticulationCfg.soft_joint_pos_limit_factor`)."""
     robot = env.scene[asset_cfg.name]
     ids = asset_cfg.joint_ids
     pos = robot.joint_pos[:, ids]

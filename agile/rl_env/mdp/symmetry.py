@@ -66,8 +66,10 @@ class GroupMirror:
     """Permutation and signs mirroring the observation groups and the action of an env."""
 
     def __init__(self, env):
-        robot = env.robot
-        axes = env.sim.model.joint_axis.numpy().reshape(env.num_envs, -1, 3)[0, 6:]
+        robot = env.scene[env.action_manager.policy_entity_name()]
+        # the joint axes of world 0's copy of the robot, in its joint order
+        axes = env.sim.model.joint_axis.numpy().reshape(env.num_envs, -1, 3)[0]
+        axes = axes[robot.world_major_indices(list(range(robot.num_joints)))[1][:robot.num_joints].cpu().numpy()]
         self.joint_perm, self.joint_sign = joint_mirror(robot.joint_names, axes)
         action_perm, action_sign = [], []
         for name, term in env.action_manager.terms.items():
@@ -102,7 +104,7 @@ class GroupMirror:
             return [0, 1, 2], VELOCITY_COMMAND
         if func in (obs_terms.joint_pos, obs_terms.joint_pos_rel, obs_terms.joint_vel_rel):
             asset: SceneEntityCfg = term.params["asset_cfg"]
-            ids = index_list(asset.joint_ids, env.robot.num_joints)
+            ids = index_list(asset.joint_ids, env.scene[asset.name].num_joints)
             return _sub_mirror(ids, self.joint_perm, self.joint_sign, where)
         if func is obs_terms.last_action and term.params.get("action_name") is None:
             return action_perm, action_sign

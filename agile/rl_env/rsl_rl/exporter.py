@@ -30,7 +30,7 @@ def _as_list(t) -> list:
 
 
 def _joint_names(env, ids) -> list[str]:
-    names = env.robot.joint_names
+    names = env.scene[env.action_manager.policy_entity_name()].joint_names
     return list(names) if isinstance(ids, slice) else [names[i] for i in ids.tolist()]
 
 
@@ -66,7 +66,8 @@ def _policy_interface(actor_cfg) -> dict:
 
 def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -> dict:
     """The IO descriptor of a policy trained on `env` (a ManagerBasedRLEnv) with `agent_cfg`."""
-    robot = env.robot
+    robot_name = env.action_manager.policy_entity_name()
+    robot = env.scene[robot_name]
     actions = []
     for name, term in env.action_manager.terms.items():
         # a term without action dimensions (random upper-body targets) is not part of the policy's output
@@ -79,7 +80,7 @@ def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -
         actions.append(entry)
     groups = agent_cfg.obs_groups["actor"]
     actuators = {}
-    for group in env.sim.actuator_groups:
+    for group in robot.actuator_groups:
         entry = {"type": type(group.cfg).__name__, "joint_names": _joint_names(env, group.joint_ids)}
         for key in ("min_delay", "max_delay"):
             if hasattr(group, key):
@@ -95,8 +96,8 @@ def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -
     return {
         "version": IO_DESCRIPTOR_VERSION,
         "task": env.task_name,
-        "robot_model_file": os.path.basename(env.cfg.robot.model_file),
-        "enable_all_colliders": env.cfg.robot.enable_all_colliders,
+        "robot_model_file": os.path.basename(robot.cfg.model_file),
+        "enable_all_colliders": robot.cfg.enable_all_colliders,
         "physics_dt_s": env.physics_dt_s,
         "decimation": env.cfg.decimation,
         "control_dt_s": env.step_dt,

@@ -7,7 +7,8 @@ import math
 
 from agile.rl_env import mdp
 from agile.rl_env.managers import CurrTerm, DoneTerm, EventTerm, ObsGroup, ObsTerm, SceneEntityCfg, Unoise
-from agile.sim.sim_cfg import ContactSensorCfg, HeightScannerCfg, SimCfg, SolverCfg
+from agile.sim.scene_cfg import ArticulationCfg, ContactSensorCfg, HeightScannerCfg, SceneCfg
+from agile.sim.sim_cfg import SimCfg, SolverCfg
 from agile.sim.terrain import TerrainGeneratorCfg
 from agile.utils.config import configclass
 
@@ -26,23 +27,27 @@ ROBOT_FRICTION_RANGE = (0.2, 1.0)
 """Dynamic friction drawn per robot collider at startup (AGILE: static 0.2-1.5, dynamic 0.2-1.0)."""
 
 
-def velocity_sim_cfg(terrain: TerrainGeneratorCfg, base_body: str, sensed_bodies: list[str],
-                     max_contacts_per_world: int) -> SimCfg:
-    """200 Hz MuJoCo physics on a generated terrain whose curriculum starts every env on row 0 or 1 (AGILE's
+def velocity_scene_cfg(robot: ArticulationCfg, terrain: TerrainGeneratorCfg, base_body: str,
+                       sensed_bodies: list[str]) -> SceneCfg:
+    """The robot alone on a generated terrain whose curriculum starts every env on row 0 or 1 (AGILE's
     `max_init_terrain_level=1` for both velocity tasks; Isaac Lab's default is 5), a contact sensor on the
-    bodies the contact terms read, and the base-height ray.
-
-    Newton's height-field collision reports several contacts per foot collider and terrain triangle
-    (including near, not yet touching ones): size `max_contacts_per_world` from a measurement."""
-    return SimCfg(
-        physics_dt_s=0.005, env_spacing_m=2.5,
-        solver=SolverCfg(iterations=10, ls_iterations=20, njmax=300, nconmax=max_contacts_per_world),
-        terrain=terrain, max_init_terrain_level=1,
+    bodies the contact terms read, and the base-height ray."""
+    return SceneCfg(
+        entities={"robot": robot},
+        terrain=terrain, max_init_terrain_level=1, env_spacing_m=2.5,
         # a MuJoCo contact takes the larger friction of its two geoms: ground at the bottom of the robot's
         # randomised range lets each world's drawn foot friction decide (Isaac Lab multiplies by a ground of 1)
         ground_friction=ROBOT_FRICTION_RANGE[0],
-        contact_sensor=ContactSensorCfg(body_names=sensed_bodies, history_length=3, track_air_time=True),
-        height_scanners={BASE_HEIGHT_SENSOR: HeightScannerCfg(body_name=base_body)})
+        contact_sensors={CONTACT_SENSOR: ContactSensorCfg(entity="robot", body_names=sensed_bodies,
+                                                          history_length=3, track_air_time=True)},
+        height_scanners={BASE_HEIGHT_SENSOR: HeightScannerCfg(entity="robot", body_name=base_body)})
+
+
+def velocity_sim_cfg(max_contacts_per_world: int) -> SimCfg:
+    """200 Hz MuJoCo physics. Newton's height-field collision reports several contacts per foot collider and
+    terrain triangle (including near, not yet touching ones): size `max_contacts_per_world` from a measurement."""
+    return SimCfg(physics_dt_s=0.005,
+                  solver=SolverCfg(iterations=10, ls_iterations=20, njmax=300, nconmax=max_contacts_per_world))
 
 
 @configclass

@@ -17,7 +17,8 @@ from agile.sim.terrain import MEDIUM_ROUGH_TERRAIN_CFG
 from agile.tasks.locomotion.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, VelocityCriticObsCfg,
                                                    random_upper_body_action_cfg, velocity_command_cfg,
                                                    velocity_curriculum_cfg, velocity_events_cfg,
-                                                   velocity_policy_obs_cfg, velocity_sim_cfg,
+                                                   velocity_policy_obs_cfg, velocity_scene_cfg,
+                                                   velocity_sim_cfg,
                                                    velocity_terminations_cfg)
 from agile.utils.config import configclass
 
@@ -27,6 +28,10 @@ FOOT_BODIES = ["left_ankle_roll_link", "right_ankle_roll_link"]
 FEET = SceneEntityCfg("robot", body_names=FOOT_BODIES, preserve_order=True)
 FEET_CONTACT = SceneEntityCfg(CONTACT_SENSOR, body_names=FOOT_BODIES, preserve_order=True)
 BASE_HEIGHT_TARGET_M = 0.72
+
+# -- scene: the robot alone on the terrain, with the contact sensor and the base-height ray
+SCENE = velocity_scene_cfg(g1_robot_cfg(), MEDIUM_ROUGH_TERRAIN_CFG, base_body="pelvis",
+                           sensed_bodies=["pelvis", "torso_link", *FOOT_BODIES])
 
 
 @configclass
@@ -97,10 +102,8 @@ class G1VelocityHistoryEnvCfg(ManagerBasedRLEnvCfg):
     num_envs = 4096
     decimation = 4  # 50 Hz policy
     episode_length_s = 30.0
-    sim = velocity_sim_cfg(MEDIUM_ROUGH_TERRAIN_CFG, base_body="pelvis",
-                           sensed_bodies=["pelvis", "torso_link", *FOOT_BODIES],
-                           max_contacts_per_world=256)  # standing about 55, flailing up to 125
-    robot = g1_robot_cfg()
+    scene = SCENE
+    sim = velocity_sim_cfg(max_contacts_per_world=256)  # standing about 55, flailing up to 125
     commands = CommandsCfg()
     actions = ActionsCfg()
     observations = ObservationsCfg()

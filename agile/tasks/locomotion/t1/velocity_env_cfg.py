@@ -15,7 +15,8 @@ from agile.sim.terrain import LESS_ROUGH_TERRAIN_CFG
 from agile.tasks.locomotion.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, VelocityCriticObsCfg,
                                                    random_upper_body_action_cfg, velocity_command_cfg,
                                                    velocity_curriculum_cfg, velocity_events_cfg,
-                                                   velocity_policy_obs_cfg, velocity_sim_cfg,
+                                                   velocity_policy_obs_cfg, velocity_scene_cfg,
+                                                   velocity_sim_cfg,
                                                    velocity_terminations_cfg)
 from agile.utils.config import configclass
 
@@ -24,6 +25,10 @@ FOOT_BODIES = ["left_foot_link", "right_foot_link"]
 FEET = SceneEntityCfg("robot", body_names=FOOT_BODIES, preserve_order=True)
 FEET_CONTACT = SceneEntityCfg(CONTACT_SENSOR, body_names=FOOT_BODIES, preserve_order=True)
 BASE_HEIGHT_TARGET_M = 0.65
+
+# -- scene: the robot alone on the terrain, with the contact sensor and the base-height ray
+SCENE = velocity_scene_cfg(t1_robot_cfg(), LESS_ROUGH_TERRAIN_CFG, base_body="Trunk",
+                           sensed_bodies=["Trunk", "Waist", *FOOT_BODIES])
 
 
 @configclass
@@ -92,9 +97,8 @@ class T1VelocityEnvCfg(ManagerBasedRLEnvCfg):
     num_envs = 4096
     decimation = 4  # 50 Hz policy
     episode_length_s = 30.0
-    sim = velocity_sim_cfg(LESS_ROUGH_TERRAIN_CFG, base_body="Trunk", sensed_bodies=["Trunk", "Waist", *FOOT_BODIES],
-                           max_contacts_per_world=128)  # standing about 15, flailing up to 75
-    robot = t1_robot_cfg()
+    scene = SCENE
+    sim = velocity_sim_cfg(max_contacts_per_world=128)  # standing about 15, flailing up to 75
     commands = CommandsCfg()
     actions = ActionsCfg()
     observations = ObservationsCfg()

@@ -1,0 +1,201 @@
+"""Zero-copy torch access to one replicated entity's root and bodies, and the one write path into them.
+
+`Entity` is what articulations and rigid objects share: a root (free or fixed to the env) and bodies.
+`RigidObject` is an entity of one body; `Articulation` (articulation.py) adds joints and actuators.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import newton
+import torch
+import warp as wp
+
+from agile.sim.names import resolve_names
+from agile.utils.math import quat_rotate_inverse, yaw_from_quat
+
+GRAVITY_DIR_W = (0.0, 0.0, -1.0)
+
+
+@dataclass(frozen=True)
+class EntityLayout:
+    """Where one entity's rows sit inside each world's block of Newton's arrays (every world holds the same
+    entities in the same order, so one layout serves all worlds)."""
+
+    coords: slice
+    """Its joint coordinates in a world's `joint_q` (7 root coordinates first when floating)."""
+    dofs: slice
+    """Its DoFs in a world's `joint_qd` (6 root DoFs first when floating)."""
+    bodies: slice
+    joints: slice
+    """Its joints in a world's joint arrays; the first is the root joint."""
+    floating: bool
+    """A free root joint (else the root is fixed to the env; its pose is the root joint's frame)."""
+
+
+def world_block(array: wp.array, num_envs: int, *shape: int) -> torch.Tensor:
+    """Zero-copy (num_envs, per-world, *shape) view of a world-major Newton array."""
+    return wp.to_torch(array).view(num_envs, -1, *shape)
+
+
+class Entity:
+    """A root and bodies replicated once per world.
+
+    Every tensor named `*_w`/`*_b` (world/body frame) is either a view of a Newton array (`root_pose_w`,
+    `body_pose_w`, ...), so reading it costs nothing and writing it writes the simulation, or a derived
+    quantity refreshed by `update()` once per env step. Quaternions are (x, y, z, w). Root linear velocities
+    are those of the root body's centre of mass (Isaac Lab's `root_lin_vel_w`).
+    """
+
+    def __init__(self, name: str, model: newton.Model, state: newton.State, layout: EntityLayout,
+                 body_names: list[str], step_dt_s: float):
+        n = model.world_count
+        self.name = name
+        self.num_envs = n
+        self.layout = layout
+        self.body_names = list(body_names)
+        self.num_bodies = len(body_names)
+        self.device = torch.device(wp.device_to_torch(model.device))
+        self.is_fixed_base = not layout.floating
+        self._step_dt_s = step_dt_s
+        if layout.bodies.stop - layout.bodies.start != self.num_bodies:
+            raise ValueError(f"entity '{name}': {self.num_bodies} body names for {layout.bodies} bodies")
+
+        self._coords = wp.to_torch(state.joint_q).view(n, -1)[:, layout.coords]
+        self._dofs = wp.to_torch(state.joint_qd).view(n, -1)[:, layout.dofs]
+        # -- root: a free root's pose and velocity are its joint coordinates; a fixed root's pose is the
+        # frame of its joint in the world (moved with the env origin), and it does not move
+        if layout.floating:
+            self.root_pose_w = self._coords[:, :7]
+            self.root_com_vel_w = self._dofs[:, :6]  # Newton: COM linear velocity and angular velocity, world
+        else:
+            self.root_pose_w = world_block(model.joint_X_p, n, 7)[:, layout.joints.start]
+            self.root_com_vel_w = torch.zeros(n, 6, device=self.device)
+        self.root_pos_w = self.root_pose_w[:, :3]
+        self.root_quat_w = self.root_pose_w[:, 3:7]
+        self.root_lin_vel_w = self.root_com_vel_w[:, :3]
+        self.root_ang_vel_w = self.root_com_vel_w[:, 3:6]
+        # -- bodies
+        self.body_pose_w = world_block(state.body_q, n, 7)[:, layout.bodies]
+        self.body_vel_w = world_block(state.body_qd, n, 6)[:, layout.bodies]  # COM lin vel, ang vel
+        self.body_wrench_w = world_block(state.body_f, n, 6)[:, layout.bodies]
+        """External wrench on each body's COM (force [N], torque [N·m]; world frame). The solver applies it at
+        every physics step until it is overwritten, so a disturbance persists between env steps."""
+        self.body_com_b = world_block(model.body_com, n, 3)[:, layout.bodies]
+        self.body_mass = wp.to_torch(model.body_mass).view(n, -1)[:, layout.bodies]
+        self.body_inertia = world_block(model.body_inertia, n, 3, 3)[:, layout.bodies]  # about the COM
+        self._body_inv_mass = wp.to_torch(model.body_inv_mass).view(n, -1)[:, layout.bodies]
+        self._body_inv_inertia = world_block(model.body_inv_inertia, n, 3, 3)[:, layout.bodies]
+        self.shape_ids = self._shape_ids(model)
+        """(N, S) global indices of the entity's shapes (world-major), for per-shape materials."""
+        self.shape_body = self._shape_local_body(model)
+        """(S,) the entity-local body of each of its shapes."""
+        # -- defaults (copies: what a reset returns to, relative to the env origin)
+        self.default_body_mass = self.body_mass.clone()
+        """Body masses as built [kg]: what each mass randomisation draws from (Isaac Lab)."""
+        self.default_root_pose = self.root_pose_w.clone()
+        # -- derived, refreshed by update()
+        self.gravity_dir_w = torch.tensor(GRAVITY_DIR_W, device=self.device).expand(n, 3)
+        self.root_lin_vel_b = torch.zeros(n, 3, device=self.device)
+        self.root_ang_vel_b = torch.zeros(n, 3, device=self.device)
+        self.projected_gravity_b = torch.zeros(n, 3, device=self.device)
+        self.heading_w = torch.zeros(n, device=self.device)
+        self._body_acc_w = torch.zeros(n, self.num_bodies, 6, device=self.device)
+        self.body_lin_acc_w = self._body_acc_w[..., :3]
+        """COM linear acceleration of each body [m/s²], world frame, by finite difference over the env step."""
+        self.body_ang_acc_w = self._body_acc_w[..., 3:]
+        """Angular acceleration of each body [rad/s²], world frame, by finite difference over the env step."""
+        self._prev_body_vel_w = self.body_vel_w.clone()
+        self._body_acc_valid = torch.zeros(n, 1, 1, dtype=torch.bool, device=self.device)
+
+    def _shape_ids(self, model: newton.Model) -> torch.Tensor:
+        bodies_per_world = model.body_count // model.world_count
+        shape_body = model.shape_body.numpy()
+        world = shape_body // bodies_per_world
+        local = shape_body % bodies_per_world
+        mine = (shape_body >= 0) & (local >= self.layout.bodies.start) & (local < self.layout.bodies.stop)
+        ids = [torch.as_tensor((mine & (world == w)).nonzero()[0]) for w in range(self.num_envs)]
+        return torch.stack(ids).to(device=self.device, dtype=torch.long)
+
+    def _shape_local_body(self, model: newton.Model) -> torch.Tensor:
+        bodies_per_world = model.body_count // model.world_count
+        first_world = model.shape_body.numpy()[self.shape_ids[0].cpu().numpy()]
+        return torch.as_tensor(first_world % bodies_per_world - self.layout.bodies.start, device=self.device)
+
+    # -- selection ------------------------------------------------------------------------------
+
+    def find_bodies(self, exprs: str | Sequence[str], preserve_order: bool = False) -> tuple[list[int], list[str]]:
+        return resolve_names(exprs, self.body_names, f"body of '{self.name}'", preserve_order)
+
+    # -- derived quantities ---------------------------------------------------------------------
+
+    def update(self) -> None:
+        """Refresh derived quantities from the state; once per env step, after physics or a reset."""
+        quat = self.root_quat_w
+        self.root_lin_vel_b[:] = quat_rotate_inverse(quat, self.root_lin_vel_w)
+        self.root_ang_vel_b[:] = quat_rotate_inverse(quat, self.root_ang_vel_w)
+        self.projected_gravity_b[:] = quat_rotate_inverse(quat, self.gravity_dir_w)
+        self.heading_w[:] = yaw_from_quat(quat)
+
+    def update_accelerations(self) -> None:
+        """Body accelerations by finite difference over the env step; once per env step, after physics."""
+        # a root-state write (reset, push) makes the previous velocity meaningless: report 0 for that step
+        body_acc_w = (self.body_vel_w - self._prev_body_vel_w) / self._step_dt_s
+        self._body_acc_w.copy_(torch.where(self._body_acc_valid, body_acc_w, 0.0))
+        self._prev_body_vel_w[:] = self.body_vel_w
+        self._body_acc_valid.fill_(True)
+
+    def state_is_valid(self, max_joint_speed_rad_s: float) -> torch.Tensor:
+        """(N,) bool: root state finite (no blow-up); articulations add their joints."""
+        return torch.isfinite(self.root_pose_w).all(-1) & torch.isfinite(self.root_com_vel_w).all(-1)
+
+    # -- writes (masked, no host sync) -----------------------------------------------------------
+
+    def write_root_state(self, pose_w: torch.Tensor, com_vel_w: torch.Tensor, mask: torch.Tensor) -> None:
+        """Set root pose (N,7) and root COM velocity (N,6, world frame) where mask (N,) is True. A fixed root
+        takes the pose (its place in the env) and ignores the velocity. Call `Simulation.forward` after."""
+        m = mask.unsqueeze(-1)
+        self.root_pose_w.copy_(torch.where(m, pose_w, self.root_pose_w))
+        if not self.is_fixed_base:
+            self.root_com_vel_w.copy_(torch.where(m, com_vel_w, self.root_com_vel_w))
+        self._body_acc_valid.masked_fill_(mask.view(-1, 1, 1), False)
+
+    def reset_to_default(self, env_origins: torch.Tensor, mask: torch.Tensor) -> None:
+        """Default root pose at the env origin, at rest, where mask (N,) is True."""
+        pose = self.default_root_pose.clone()
+        pose[:, :3] += env_origins
+        self.write_root_state(pose, torch.zeros_like(self.root_com_vel_w), mask)
+
+    def set_body_mass(self, mass_kg: torch.Tensor, mask: torch.Tensor, scale_inertia: bool = True) -> None:
+        """Set body masses (N, B) where mask (N,) is True, keeping inverse mass and inertia consistent.
+
+        With scale_inertia the inertia scales with the mass (same shape, different density), as Isaac Lab
+        does. The caller notifies the solver (`ModelFlags.BODY_INERTIAL_PROPERTIES`).
+        """
+        m = mask.view(-1, 1)
+        new_mass = torch.where(m, mass_kg, self.body_mass)
+        if scale_inertia:
+            ratio = (new_mass / self.body_mass.clamp(min=1e-9)).unsqueeze(-1).unsqueeze(-1)
+            self.body_inertia.mul_(ratio)
+            self._body_inv_inertia.copy_(torch.where(ratio > 0, self._body_inv_inertia / ratio.clamp(min=1e-9), 0.0))
+        self.body_mass.copy_(new_mass)
+        self._body_inv_mass.copy_(torch.where(new_mass > 0, 1.0 / new_mass.clamp(min=1e-9), 0.0))
+
+
+class RigidObject(Entity):
+    """One rigid body replicated once per world: dynamic, kinematic (moved only by root-state writes) or fixed
+    to the env. Its root is its body: `root_pose_w` is `body_pose_w[:, 0]` for a free object."""
+
+    num_joints = 0
+    joint_names: list[str] = []
+
+    def __init__(self, name: str, model: newton.Model, state: newton.State, layout: EntityLayout,
+                 body_names: list[str], step_dt_s: float, body_type: str):
+        super().__init__(name, model, state, layout, body_names, step_dt_s)
+        self.body_type = body_type
+        """'dynamic', 'kinematic' or 'fixed' (RigidObjectCfg.body_type)."""
+
+    def find_joints(self, exprs, preserve_order: bool = False):
+        raise ValueError(f"'{self.name}' is a rigid object: it has no joints")
