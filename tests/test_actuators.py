@@ -14,6 +14,14 @@ from agile.assets import unitree_g1
 J = 2  # joints per world
 
 
+def world_major(num_envs: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Coordinate and DoF indices of the J joints after a free root, world-major (Articulation.world_major_indices)."""
+    world = torch.arange(num_envs).unsqueeze(1)
+    local = torch.arange(J).unsqueeze(0)
+    return ((world * (7 + J) + 7 + local).flatten().to(torch.int32),
+            (world * (6 + J) + 6 + local).flatten().to(torch.int32))
+
+
 def make_group(cfg, num_envs=1, kp=100.0, kd=0.0, effort=50.0, velocity=10.0, saturation=80.0):
     dofs, coords = num_envs * (6 + J), num_envs * (7 + J)
     state = SimpleNamespace(joint_q=wp.zeros(coords, dtype=float), joint_qd=wp.zeros(dofs, dtype=float))
@@ -23,8 +31,8 @@ def make_group(cfg, num_envs=1, kp=100.0, kd=0.0, effort=50.0, velocity=10.0, sa
     full = lambda v: torch.full((J,), v)  # noqa: E731
     values = {"stiffness": full(kp), "damping": full(kd), "effort_limit": full(effort), "velocity_limit": full(velocity),
               "saturation_effort": full(saturation)}
-    group = ExplicitActuatorGroup("test", cfg, list(range(J)), values, state, control, computed, num_envs,
-                                  torch.device("cpu"))
+    group = ExplicitActuatorGroup("test", cfg, list(range(J)), *world_major(num_envs), values, state, control,
+                                  computed, num_envs, torch.device("cpu"))
     views = SimpleNamespace(
         q=wp.to_torch(state.joint_q).view(num_envs, -1)[:, 7:], qd=wp.to_torch(state.joint_qd).view(num_envs, -1)[:, 6:],
         target=wp.to_torch(control.joint_target_q).view(num_envs, -1)[:, 7:],
@@ -122,8 +130,8 @@ def test_delayed_implicit_shifts_the_solver_targets_by_k_steps_and_restores_the_
     n = 1
     control = SimpleNamespace(joint_target_q=wp.zeros(n * (7 + J), dtype=float),
                               joint_target_qd=wp.zeros(n * (6 + J), dtype=float))
-    group = DelayedTargetGroup("legs", DelayedImplicitActuatorCfg(min_delay=delay, max_delay=delay), [0, 1], control,
-                               n, torch.device("cpu"))
+    group = DelayedTargetGroup("legs", DelayedImplicitActuatorCfg(min_delay=delay, max_delay=delay), [0, 1],
+                               *world_major(n), control, n, torch.device("cpu"))
     group.reset(torch.ones(n, dtype=torch.bool))
     target = wp.to_torch(control.joint_target_q).view(n, -1)[:, 7:]
     seen = []

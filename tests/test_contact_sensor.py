@@ -108,7 +108,7 @@ def test_reset_clears_only_the_masked_worlds(stand_and_drop):
 
 
 def test_body_regex_matching_nothing_lists_the_bodies():
-    with pytest.raises(ValueError, match=r"contact sensor.*'.*_hoof' matches no body.*left_foot_link"):
+    with pytest.raises(ValueError, match=r"scene.contact_sensors.contact_forces: .*'.*_hoof' matches no body of 'robot'.*left_foot_link"):
         t1_sim(1, body_names=".*_hoof")
 
 

@@ -7,10 +7,10 @@ import pytest
 import torch
 import warp as wp
 from tensordict import TensorDict
+from scenes import robot_sim
 
 import agile.tasks
 from agile.sim import ArticulationCfg
-from scenes import robot_sim
 from agile.utils.config import ConfigError
 
 
@@ -97,7 +97,7 @@ def test_user_robot_files_load(asset):
 
 
 def test_missing_robot_file_is_reported():
-    with pytest.raises(FileNotFoundError, match="robot model file not found"):
+    with pytest.raises(ConfigError, match="scene.entities.robot: model file not found: /nonexistent/robot.xml"):
         robot_sim(ArticulationCfg(model_file="/nonexistent/robot.xml"), 1)
 
 
