@@ -30,6 +30,7 @@ def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity"
     episode_steps = torch.zeros(n, device=env.device)
     ended_length_steps = torch.zeros((), device=env.device)
     term_sums = {name: torch.zeros((), device=env.device) for name in env.reward_manager.weights}
+    robot = env.scene[env.action_manager.policy_entity_name()]  # the robot the policy drives
     obs, _ = env.reset()
     with torch.inference_mode():
         for step in range(steps):
@@ -37,7 +38,6 @@ def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity"
             obs, reward, terminated, truncated, _ = env.step(policy(obs))
             for recorder in recorders:
                 recorder.record(env, step * env.step_dt)
-            robot = env.scene[env.action_manager.policy_entity_name()]
             alive = ~(terminated | truncated)  # the state of a reset env is its new episode's first state
             lin_err = torch.linalg.norm(command[:, :2] - robot.root_lin_vel_b[:, :2], dim=1)
             ang_err = (command[:, 2] - robot.root_ang_vel_b[:, 2]).abs()

@@ -27,7 +27,7 @@ def make_sim(entities: dict, gravity_mps2: float = -GRAVITY_MPS2, **scene_fields
 def reset_all(sim: Simulation) -> torch.Tensor:
     everyone = torch.ones(NUM_ENVS, dtype=torch.bool)
     sim.reset_worlds(everyone)
-    sim.scene.reset_to_default(sim.env_origins, everyone)
+    sim.scene.reset_to_default(everyone)
     sim.forward(everyone)
     sim.scene.update()
     return everyone
@@ -202,3 +202,42 @@ def test_an_object_file_that_does_not_load_names_the_entity(tmp_path):
 def test_an_unknown_body_type_lists_the_valid_ones():
     with pytest.raises(ConfigError, match=r"scene.entities.box: body_type 'floating'.*'dynamic', 'kinematic', 'fixed'"):
         make_sim({"box": RigidObjectCfg(body_type="floating")})
+
+
+def test_randomisation_events_act_on_the_named_object_only():
+    import warp as wp
+
+    sim = make_sim({"a": RigidObjectCfg(shape=BoxShapeCfg(), mass_kg=1.0, friction=1.0),
+                    "b": RigidObjectCfg(shape=BoxShapeCfg(), mass_kg=1.0, friction=1.0, init_pos_m=(0.5, 0.0, 0.5))})
+    reset_all(sim)
+    env = type("Env", (), {"scene": sim.scene, "num_envs": NUM_ENVS, "device": sim.device, "sim": sim})()
+    asset = SceneEntityCfg("a")
+    asset.resolve(env)
+    everyone = torch.ones(NUM_ENVS, dtype=torch.bool)
+    mdp.randomize_rigid_body_material(env, everyone, static_friction_range=(0.3, 0.4),
+                                      dynamic_friction_range=(0.3, 0.4), restitution_range=(0.0, 0.0),
+                                      asset_cfg=asset)
+    mdp.randomize_rigid_body_mass(env, everyone, mass_distribution_params=(2.0, 2.0), operation="add",
+                                  asset_cfg=asset)
+    mu = wp.to_torch(sim.model.shape_material_mu)
+    a, b = sim.scene["a"], sim.scene["b"]
+    assert ((mu[a.shape_ids] >= 0.3 - 1e-6) & (mu[a.shape_ids] <= 0.4 + 1e-6)).all()
+    assert torch.allclose(mu[b.shape_ids], torch.ones_like(mu[b.shape_ids]))
+    assert a.body_mass[:, 0].tolist() == pytest.approx([3.0] * NUM_ENVS)
+    assert b.body_mass[:, 0].tolist() == pytest.approx([1.0] * NUM_ENVS)
+
+
+def test_env_frame_pose_and_external_wrench():
+    sim = make_sim({"box": RigidObjectCfg(shape=BoxShapeCfg(), mass_kg=1.0, init_pos_m=(0.2, -0.1, 1.0))},
+                   gravity_mps2=0.0)
+    reset_all(sim)
+    box = sim.scene["box"]
+    assert torch.allclose(box.root_pos_env, torch.tensor([[0.2, -0.1, 1.0]] * NUM_ENVS), atol=1e-6)
+    wrench = torch.zeros(NUM_ENVS, 1, 6)
+    wrench[..., 2] = 4.0  # 4 N up on a 1 kg box
+    box.set_external_wrench(wrench, torch.tensor([False, True]))
+    sim.step(20)  # 0.1 s
+    assert box.root_lin_vel_w[:, 2].tolist() == pytest.approx([0.0, 0.4], abs=1e-4)
+    box.write_root_state_env(box.default_root_pose, torch.zeros(NUM_ENVS, 6), torch.ones(NUM_ENVS, dtype=torch.bool))
+    sim.scene.update()
+    assert torch.allclose(box.root_pos_env, torch.tensor([[0.2, -0.1, 1.0]] * NUM_ENVS), atol=1e-6)

@@ -256,7 +256,7 @@ class ManagerBasedRLEnv(gym.Env):
         self._log.write(log, hold_unless=any_reset)
 
         self.sim.reset_worlds(env_mask)
-        self.scene.reset_to_default(self.env_origins, env_mask)
+        self.scene.reset_to_default(env_mask)
         self.event_manager.apply("reset", env_mask)
         self.sim.forward(env_mask)
         self.scene.update()

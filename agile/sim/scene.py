@@ -61,16 +61,17 @@ def build_world_template(cfg: SceneCfg, gravity_mps2: float):
 
 
 def make_entities(cfg: SceneCfg, model: newton.Model, state: newton.State, control: newton.Control,
-                  layouts: dict[str, EntityLayout], names: dict, step_dt_s: float, computed_effort) -> dict:
+                  layouts: dict[str, EntityLayout], names: dict, step_dt_s: float, env_origins: torch.Tensor,
+                  computed_effort) -> dict:
     entities: dict[str, Entity] = {}
     for name, entity_cfg in cfg.entities.items():
         joint_names, body_names = names[name]
         try:
             if isinstance(entity_cfg, ArticulationCfg):
                 entities[name] = Articulation(name, entity_cfg, model, state, control, layouts[name], joint_names,
-                                              body_names, step_dt_s, computed_effort)
+                                              body_names, step_dt_s, env_origins, computed_effort)
             else:
-                entities[name] = RigidObject(name, model, state, layouts[name], body_names, step_dt_s,
+                entities[name] = RigidObject(name, model, state, layouts[name], body_names, step_dt_s, env_origins,
                                              entity_cfg.body_type)
         except ValueError as err:
             raise ConfigError(f"scene.entities.{name}: {err}") from None
@@ -151,9 +152,9 @@ class Scene:
             valid = ok if valid is None else valid & ok
         return valid
 
-    def reset_to_default(self, env_origins: torch.Tensor, mask: torch.Tensor) -> None:
-        """Every entity at its default state at the env origin where mask (N,) is True (actuators cleared)."""
+    def reset_to_default(self, mask: torch.Tensor) -> None:
+        """Every entity at its default state at its env origin where mask (N,) is True (actuators cleared)."""
         for entity in self.entities.values():
-            entity.reset_to_default(env_origins, mask)
+            entity.reset_to_default(mask)
         for articulation in self.articulations.values():
             articulation.reset_actuators(mask)

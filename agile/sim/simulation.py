@@ -91,16 +91,16 @@ class Simulation:
         self.control = self.model.control()
         self.computed_effort = wp.zeros_like(self.state.joint_qd)
         """Explicit actuators' torque before clipping, per DoF (their clipped torque is control.joint_f)."""
-        entities = make_entities(scene_cfg, self.model, self.state, self.control, layouts, names, step_dt_s,
-                                 self.computed_effort)
-        self.actuator_groups: list[ExplicitActuatorGroup | DelayedTargetGroup] = [
-            group for entity in entities.values() for group in getattr(entity, "actuator_groups", [])]
-        """Per-physics-step actuator work of every articulation: explicit torque models and delayed targets."""
-        contact_sensors = self._make_contact_sensors(scene_cfg, entities, ground_shape)
         self.env_origins = env_origins_grid(num_envs, scene_cfg.env_spacing_m, self.device)
         """(N, 3) spawn point of each env; changed in place when an env changes terrain level."""
         if self.terrain is not None:
             self._init_terrain_levels(scene_cfg.max_init_terrain_level)
+        entities = make_entities(scene_cfg, self.model, self.state, self.control, layouts, names, step_dt_s,
+                                 self.env_origins, self.computed_effort)
+        self.actuator_groups: list[ExplicitActuatorGroup | DelayedTargetGroup] = [
+            group for entity in entities.values() for group in getattr(entity, "actuator_groups", [])]
+        """Per-physics-step actuator work of every articulation: explicit torque models and delayed targets."""
+        contact_sensors = self._make_contact_sensors(scene_cfg, entities, ground_shape)
         terrain_heights = None if self.terrain is None else TerrainHeights(
             torch.from_numpy(self.terrain.heights_m).to(self.device), self.terrain.origin_xy_m,
             self.terrain.horizontal_scale_m)

@@ -20,8 +20,8 @@ class Articulation(Entity):
 
     def __init__(self, name: str, cfg: ArticulationCfg, model: newton.Model, state: newton.State,
                  control: newton.Control, layout: EntityLayout, joint_names: list[str], body_names: list[str],
-                 step_dt_s: float, computed_effort: wp.array):
-        super().__init__(name, model, state, layout, body_names, step_dt_s)
+                 step_dt_s: float, env_origins: torch.Tensor, computed_effort: wp.array):
+        super().__init__(name, model, state, layout, body_names, step_dt_s, env_origins)
         n = model.world_count
         self.cfg = cfg
         self.joint_names = list(joint_names)
@@ -153,8 +153,8 @@ class Articulation(Entity):
         self._prev_joint_vel.copy_(torch.where(m, vel, self._prev_joint_vel))
         self.joint_acc.masked_fill_(m, 0.0)
 
-    def reset_to_default(self, env_origins: torch.Tensor, mask: torch.Tensor) -> None:
-        super().reset_to_default(env_origins, mask)
+    def reset_to_default(self, mask: torch.Tensor) -> None:
+        super().reset_to_default(mask)
         self.write_joint_state(self.default_joint_pos, self.default_joint_vel, mask)
 
     def reset_actuators(self, mask: torch.Tensor) -> None:

@@ -50,7 +50,7 @@ class Entity:
     """
 
     def __init__(self, name: str, model: newton.Model, state: newton.State, layout: EntityLayout,
-                 body_names: list[str], step_dt_s: float):
+                 body_names: list[str], step_dt_s: float, env_origins: torch.Tensor):
         n = model.world_count
         self.name = name
         self.num_envs = n
@@ -60,6 +60,8 @@ class Entity:
         self.device = torch.device(wp.device_to_torch(model.device))
         self.is_fixed_base = not layout.floating
         self._step_dt_s = step_dt_s
+        self.env_origins = env_origins
+        """(N, 3) the env origins (the simulation's tensor, moved in place by terrain-level changes)."""
         if layout.bodies.stop - layout.bodies.start != self.num_bodies:
             raise ValueError(f"entity '{name}': {self.num_bodies} body names for {layout.bodies} bodies")
 
@@ -98,6 +100,8 @@ class Entity:
         self.default_root_pose = self.root_pose_w.clone()
         # -- derived, refreshed by update()
         self.gravity_dir_w = torch.tensor(GRAVITY_DIR_W, device=self.device).expand(n, 3)
+        self.root_pos_env = torch.zeros(n, 3, device=self.device)
+        """Root position relative to the env origin [m] (the env frame: world axes, origin at the env's)."""
         self.root_lin_vel_b = torch.zeros(n, 3, device=self.device)
         self.root_ang_vel_b = torch.zeros(n, 3, device=self.device)
         self.projected_gravity_b = torch.zeros(n, 3, device=self.device)
@@ -134,6 +138,7 @@ class Entity:
     def update(self) -> None:
         """Refresh derived quantities from the state; once per env step, after physics or a reset."""
         quat = self.root_quat_w
+        torch.sub(self.root_pos_w, self.env_origins, out=self.root_pos_env)
         self.root_lin_vel_b[:] = quat_rotate_inverse(quat, self.root_lin_vel_w)
         self.root_ang_vel_b[:] = quat_rotate_inverse(quat, self.root_ang_vel_w)
         self.projected_gravity_b[:] = quat_rotate_inverse(quat, self.gravity_dir_w)
@@ -162,11 +167,20 @@ class Entity:
             self.root_com_vel_w.copy_(torch.where(m, com_vel_w, self.root_com_vel_w))
         self._body_acc_valid.masked_fill_(mask.view(-1, 1, 1), False)
 
-    def reset_to_default(self, env_origins: torch.Tensor, mask: torch.Tensor) -> None:
+    def write_root_state_env(self, pose_env: torch.Tensor, com_vel_w: torch.Tensor, mask: torch.Tensor) -> None:
+        """`write_root_state` with the position relative to the env origin."""
+        pose = pose_env.clone()
+        pose[:, :3] += self.env_origins
+        self.write_root_state(pose, com_vel_w, mask)
+
+    def reset_to_default(self, mask: torch.Tensor) -> None:
         """Default root pose at the env origin, at rest, where mask (N,) is True."""
-        pose = self.default_root_pose.clone()
-        pose[:, :3] += env_origins
-        self.write_root_state(pose, torch.zeros_like(self.root_com_vel_w), mask)
+        self.write_root_state_env(self.default_root_pose, torch.zeros_like(self.root_com_vel_w), mask)
+
+    def set_external_wrench(self, wrench_w: torch.Tensor, mask: torch.Tensor) -> None:
+        """Set the external wrench (N, B, 6: force [N], torque [N·m], world frame, at each body's COM) where
+        mask (N,) is True; the solver applies it at every physics step until it is changed or the env resets."""
+        self.body_wrench_w.copy_(torch.where(mask.view(-1, 1, 1), wrench_w, self.body_wrench_w))
 
     def set_body_mass(self, mass_kg: torch.Tensor, mask: torch.Tensor, scale_inertia: bool = True) -> None:
         """Set body masses (N, B) where mask (N,) is True, keeping inverse mass and inertia consistent.
@@ -192,8 +206,8 @@ class RigidObject(Entity):
     joint_names: list[str] = []
 
     def __init__(self, name: str, model: newton.Model, state: newton.State, layout: EntityLayout,
-                 body_names: list[str], step_dt_s: float, body_type: str):
-        super().__init__(name, model, state, layout, body_names, step_dt_s)
+                 body_names: list[str], step_dt_s: float, env_origins: torch.Tensor, body_type: str):
+        super().__init__(name, model, state, layout, body_names, step_dt_s, env_origins)
         self.body_type = body_type
         """'dynamic', 'kinematic' or 'fixed' (RigidObjectCfg.body_type)."""
 
