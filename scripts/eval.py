@@ -75,11 +75,13 @@ def main(argv=None) -> None:
     parser.add_argument("--out", default=None, help="write the metrics as JSON here")
     parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
     parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
+    cli.add_checkpoint_args(parser)
     args = parser.parse_args(argv)
 
     checkpoint = args.checkpoint or cli.shipped_policy(args)
     if checkpoint is None:
         raise SystemExit(f"error: no --checkpoint given and agile ships no policy for {args.task}")
+    contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint)
     env_cfg, agent_cfg, device = cli.load_task(args)
     env_cfg = inference_cfg(env_cfg)
     if args.command is not None:
@@ -102,7 +104,7 @@ def main(argv=None) -> None:
         recorders.append(UsdRecorder(args.usd, env, num_frames=args.num_episodes * env.max_episode_length))
     if args.video:
         recorders.append(VideoRecorder(args.video, env))
-    metrics = evaluate(env, load_policy(checkpoint, env, agent_cfg), args.num_episodes, recorders=recorders)
+    metrics = evaluate(env, load_policy(contents, env, agent_cfg), args.num_episodes, recorders=recorders)
     for recorder in recorders:
         recorder.close()
     metrics.update({"task": args.task, "checkpoint": checkpoint, "device": device, "command": args.command,

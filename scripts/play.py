@@ -29,6 +29,22 @@ def sinusoidal_actions(step: int, step_dt: float, num_envs: int, action_dim: int
     return (0.5 * torch.sin(2 * math.pi * freq_hz * t + i * math.pi / action_dim)).expand(num_envs, -1)
 
 
+LOCAL_HOST = "127.0.0.1"
+
+
+def open_viewer(model, port: int, host: str = LOCAL_HOST):
+    """The viser viewer of `model`, listening on `host` only (the loopback address unless the user says)."""
+    import newton.viewer
+
+    if host not in (LOCAL_HOST, "localhost", "::1"):
+        print(f"[agile] warning: the viewer listens on {host}:{port} without authentication: anyone who can reach "
+              f"that address watches the run (and drives it, once a GUI has controls)")
+    viewer = newton.viewer.ViewerViser(port=port, host=host)
+    viewer.set_model(model)
+    print(f"[agile] viewer on http://{'localhost' if host == LOCAL_HOST else host}:{port}")
+    return viewer
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     cli.add_common_args(parser)
@@ -37,28 +53,30 @@ def main(argv=None) -> None:
     parser.add_argument("--num_steps", type=int, default=1000, help="env steps to run")
     parser.add_argument("--viewer", choices=["none", "viser"], default="none", help="viser: browser viewer")
     parser.add_argument("--port", type=int, default=8080, help="viser port")
+    parser.add_argument("--host", default=LOCAL_HOST,
+                        help=f"address the viewer listens on (default {LOCAL_HOST}: this machine only; from another "
+                             "machine use SSH port forwarding, see the README). 0.0.0.0 exposes it to the network")
     parser.add_argument("--real_time", action="store_true", help="slow down to the control rate")
     parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
     parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
+    cli.add_checkpoint_args(parser)
     args = parser.parse_args(argv)
 
     checkpoint = args.checkpoint
     if checkpoint is None and not args.sinusoidal:
         checkpoint = cli.shipped_policy(args)
+    contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint) if checkpoint and not args.sinusoidal \
+        else None
     env_cfg, agent_cfg, device = cli.load_task(args)
     import torch
     env = cli.make_env(args.task, inference_cfg(env_cfg), device)
-    policy = load_policy(checkpoint, env, agent_cfg) if checkpoint and not args.sinusoidal else None
+    policy = load_policy(contents, env, agent_cfg) if contents is not None else None
     print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
           f"{'policy ' + checkpoint if policy else 'sinusoidal test actions'}")
 
     viewer = None
     if args.viewer == "viser":
-        import newton.viewer
-
-        viewer = newton.viewer.ViewerViser(port=args.port, host="0.0.0.0")
-        viewer.set_model(env.sim.model)
-        print(f"[agile] viewer on http://localhost:{args.port}")
+        viewer = open_viewer(env.sim.model, args.port, args.host)
 
     recorder = None
     if args.usd:

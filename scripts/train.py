@@ -59,12 +59,11 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
     video_env.close()
 
 
-def initial_actor_checkpoint(path: str, log_dir: str, action_std: float | None) -> str:
-    """The --init_policy checkpoint copied into the run's folder as init_policy.pt (where the run started stays
-    with it), with the actor's action noise set to `action_std` when given."""
+def initial_actor_checkpoint(checkpoint: dict, path: str, log_dir: str, action_std: float | None) -> dict:
+    """The --init_policy checkpoint (contents of `path`) copied into the run's folder as init_policy.pt (where the
+    run started stays with it), with the actor's action noise set to `action_std` when given."""
     import torch
 
-    checkpoint = torch.load(path, map_location="cpu", weights_only=False)
     if action_std is not None:
         actor = checkpoint["actor_state_dict"]
         if "distribution.std_param" in actor:
@@ -75,9 +74,8 @@ def initial_actor_checkpoint(path: str, log_dir: str, action_std: float | None) 
         else:
             sys.exit(f"error: --init_action_std: the actor in {path} has no state-independent std to reset")
         print(f"[agile] action noise reset to std {action_std}")
-    start = os.path.join(log_dir, "init_policy.pt")
-    torch.save(checkpoint, start)
-    return start
+    torch.save(checkpoint, os.path.join(log_dir, "init_policy.pt"))
+    return checkpoint
 
 
 def main(argv=None) -> None:
@@ -99,6 +97,7 @@ def main(argv=None) -> None:
                         "iterations into <log dir>/videos (a separate 1-env world, rendered headless)")
     parser.add_argument("--video_interval", type=int, default=500, help="iterations between clips")
     parser.add_argument("--video_length", type=int, default=200, help="env steps per clip")
+    cli.add_checkpoint_args(parser)
     args = parser.parse_args(argv)
 
     env_cfg, agent_cfg, device = cli.load_task(args)
@@ -115,15 +114,19 @@ def main(argv=None) -> None:
             sys.exit(f"error: checkpoint not found: {resume_path}")
     if args.init_policy and resume_path:
         sys.exit("error: --init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
+    # read before the env is built: a file that is missing or would run code is refused at once
+    resume_contents = cli.read_checkpoint(resume_path, args.trust_checkpoint) if resume_path else None
     if args.init_policy and not os.path.isfile(args.init_policy):
         sys.exit(f"error: --init_policy file not found: {args.init_policy}")
     if args.init_action_std is not None and (not args.init_policy or not args.init_action_std > 0):
         sys.exit("error: --init_action_std needs --init_policy and a positive value "
                  "(a new run's initial std is agent.actor.distribution_cfg.init_std)")
+    init_contents = cli.read_checkpoint(args.init_policy, args.trust_checkpoint) if args.init_policy else None
 
     from rsl_rl.runners import OnPolicyRunner
 
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+    from agile.rl_env.rsl_rl.checkpoints import restore_runner
 
     env = cli.make_env(args.task, env_cfg, device)
     print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
@@ -134,11 +137,11 @@ def main(argv=None) -> None:
     runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
     if resume_path:
         print(f"[agile] resuming from {resume_path}")
-        runner.load(resume_path, map_location=str(env.device))  # a GPU run can be resumed on another device
+        restore_runner(runner, resume_contents)  # loaded on the CPU: a GPU run can be resumed on another device
     if args.init_policy:
         print(f"[agile] actor initialised from {args.init_policy}")
-        start = initial_actor_checkpoint(args.init_policy, log_dir, args.init_action_std)
-        runner.load(start, load_cfg={"actor": True}, map_location=str(env.device))
+        start = initial_actor_checkpoint(init_contents, args.init_policy, log_dir, args.init_action_std)
+        restore_runner(runner, start, load_cfg={"actor": True})
     if args.video:
         learn_with_clips(runner, args, env_cfg, device, log_dir, agent_cfg.max_iterations)
     else:

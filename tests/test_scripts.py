@@ -51,9 +51,9 @@ def test_train_init_policy_starts_from_the_shipped_actor(tmp_path):
                     "agent.num_steps_per_env=4")
     assert code == 0 and "actor initialised from" in out, out
     checkpoint = next((tmp_path / "velocity_t1").iterdir()) / "model_0.pt"
-    trained = torch.load(checkpoint, weights_only=False)
+    trained = torch.load(checkpoint, weights_only=True)
     assert trained["iter"] == 0
-    shipped_std = torch.load(shipped, weights_only=False)["actor_state_dict"]["distribution.std_param"]
+    shipped_std = torch.load(shipped, weights_only=True)["actor_state_dict"]["distribution.std_param"]
     assert (shipped_std < 0.5).all()  # a fresh actor starts at 1.0: the weights did come from the file
     assert torch.allclose(trained["actor_state_dict"]["distribution.std_param"], shipped_std, atol=0.02)
     assert (checkpoint.parent / "init_policy.pt").is_file()  # where the run started stays with it
@@ -70,8 +70,8 @@ def test_train_init_action_std_resets_the_loaded_actors_noise(tmp_path):
                     "--init_action_std", "0.4", "agent.num_steps_per_env=4")
     assert code == 0 and "action noise reset to std 0.4" in out, out
     run_dir = next((tmp_path / "velocity_t1").iterdir())
-    trained = torch.load(run_dir / "model_0.pt", weights_only=False)["actor_state_dict"]
-    shipped_actor = torch.load(shipped, weights_only=False)["actor_state_dict"]
+    trained = torch.load(run_dir / "model_0.pt", weights_only=True)["actor_state_dict"]
+    shipped_actor = torch.load(shipped, weights_only=True)["actor_state_dict"]
     assert torch.allclose(trained["distribution.std_param"], torch.full((12,), 0.4), atol=0.02)
     # the rest of the actor is the shipped one (one update moves it a little)
     assert torch.allclose(trained["mlp.0.weight"], shipped_actor["mlp.0.weight"], atol=0.05)
@@ -129,7 +129,7 @@ def test_actor_only_policy_file_loads_like_a_checkpoint(trained_run, tmp_path):
     import torch
 
     run_dir, _ = trained_run
-    saved = torch.load(sorted(run_dir.glob("model_*.pt"))[-1], weights_only=False)
+    saved = torch.load(sorted(run_dir.glob("model_*.pt"))[-1], weights_only=True)
     actor_only = tmp_path / "actor.pt"
     torch.save({"actor_state_dict": saved["actor_state_dict"], "iter": saved["iter"], "infos": None}, actor_only)
     code, out = run("scripts/eval.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--device", "cpu",

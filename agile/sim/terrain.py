@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from agile.utils.config import configclass, to_dict
+from agile.utils.files import warn_if_untrusted_folder
 
 CACHE_VERSION = 2
 """Bump when the meaning of a config field changes, so old cache files are not reused."""
@@ -304,6 +305,7 @@ def load_or_generate_terrain(cfg: TerrainGeneratorCfg, use_cache: bool = True) -
         return generate_terrain(cfg)
     path = cache_dir() / f"terrain_{cache_key(cfg)}.npz"
     if path.is_file():
+        warn_if_untrusted_folder(path.parent, "a cached terrain")
         try:
             with np.load(path) as f:
                 arrays = {name: f[name] for name in TerrainData.ARRAYS}

@@ -30,6 +30,26 @@ def add_common_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("overrides", nargs="*", help=OVERRIDE_HELP)
 
 
+def add_checkpoint_args(parser: argparse.ArgumentParser) -> None:
+    from agile.rl_env.rsl_rl.checkpoints import TRUST_FLAG
+
+    parser.add_argument(TRUST_FLAG, action="store_true",
+                        help="load checkpoints with full unpickling, which runs any code inside the file: only for "
+                             "files you trust (by default only tensors and plain containers are loaded)")
+
+
+def read_checkpoint(path: str, trust: bool) -> dict:
+    """A checkpoint's contents, loaded before the env is built so that a bad file is reported at once."""
+    from agile.rl_env.rsl_rl.checkpoints import UntrustedCheckpointError, load_checkpoint
+
+    if not os.path.isfile(path):
+        sys.exit(f"error: checkpoint not found: {path}")
+    try:
+        return load_checkpoint(path, "cpu", trust=trust)
+    except UntrustedCheckpointError as err:
+        sys.exit(f"error: {err}")
+
+
 def resolve_device(requested: str | None) -> str:
     import warp as wp
 

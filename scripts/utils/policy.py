@@ -17,24 +17,25 @@ def inference_cfg(env_cfg):
     return env_cfg
 
 
-def load_runner(checkpoint: str, env, agent_cfg):
-    """An RSL-RL runner (no logging) holding the models of a checkpoint or of a shipped actor-only file."""
-    import torch
+def load_runner(checkpoint: dict, env, agent_cfg):
+    """An RSL-RL runner (no logging) holding the models of a checkpoint or of a shipped actor-only file (contents
+    from `cli.read_checkpoint`)."""
     from rsl_rl.runners import OnPolicyRunner
 
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+    from agile.rl_env.rsl_rl.checkpoints import restore_runner
 
     wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
     runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
-    saved = torch.load(checkpoint, map_location=str(env.device), weights_only=False)
     # a shipped policy holds the actor only; a training checkpoint also the critic and optimizer
-    actor_only = "optimizer_state_dict" not in saved
-    runner.load(checkpoint, load_cfg={"actor": True} if actor_only else None, map_location=str(env.device))
+    actor_only = "optimizer_state_dict" not in checkpoint
+    restore_runner(runner, checkpoint, load_cfg={"actor": True} if actor_only else None)
     return runner
 
 
-def load_policy(checkpoint: str, env, agent_cfg):
-    """The deterministic actor of a checkpoint, as a callable on the env's observation TensorDict."""
+def load_policy(checkpoint: dict, env, agent_cfg):
+    """The deterministic actor of a checkpoint (contents from `cli.read_checkpoint`), as a callable on the env's
+    observation TensorDict."""
     from agile.rl_env.rsl_rl import flatten_groups
 
     actor = load_runner(checkpoint, env, agent_cfg).get_inference_policy(device=str(env.device))
