@@ -119,3 +119,21 @@ def test_viewer_listens_on_loopback_unless_a_host_is_given(capsys):
     finally:
         viewer.close()
     assert "warning: the viewer listens on 0.0.0.0" in capsys.readouterr().out
+
+
+def test_a_cache_in_a_folder_others_can_write_is_loaded_with_a_warning(tmp_path, monkeypatch):
+    import warnings
+
+    from test_terrain import STAIRS
+
+    from agile.sim.terrain import cache_dir, load_or_generate_terrain
+
+    monkeypatch.setenv("AGILE_CACHE_DIR", str(tmp_path))
+    load_or_generate_terrain(STAIRS)  # writes the cache with the user's permissions
+    assert not cache_dir().stat().st_mode & 0o002
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_or_generate_terrain(STAIRS)  # a private folder: no warning
+    cache_dir().chmod(0o777)
+    with pytest.warns(UserWarning, match="world-writable"):
+        load_or_generate_terrain(STAIRS)

@@ -13,7 +13,8 @@ from agile.utils.config import configclass
 
 @configclass
 class SceneEntityCfg:
-    """Joints or bodies of the robot, selected by name regexes; resolved to indices when the env is built."""
+    """Joints or bodies of a scene entity (or bodies of a sensor), selected by name regexes; resolved to indices
+    when the env is built. `name` is the entity's (or sensor's) name in the scene."""
 
     name: str = "robot"
     joint_names: str | list[str] | None = None

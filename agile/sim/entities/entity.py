@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import newton
+import numpy as np
 import torch
 import warp as wp
 
@@ -120,8 +121,9 @@ class Entity:
         world = shape_body // bodies_per_world
         local = shape_body % bodies_per_world
         mine = (shape_body >= 0) & (local >= self.layout.bodies.start) & (local < self.layout.bodies.stop)
-        ids = [torch.as_tensor((mine & (world == w)).nonzero()[0]) for w in range(self.num_envs)]
-        return torch.stack(ids).to(device=self.device, dtype=torch.long)
+        ids = mine.nonzero()[0]
+        ids = ids[np.argsort(world[ids], kind="stable")]  # world-major, each world's shapes in model order
+        return torch.as_tensor(ids.reshape(self.num_envs, -1), dtype=torch.long, device=self.device)
 
     def _shape_local_body(self, model: newton.Model) -> torch.Tensor:
         bodies_per_world = model.body_count // model.world_count
