@@ -241,3 +241,16 @@ def test_env_frame_pose_and_external_wrench():
     box.write_root_state_env(box.default_root_pose, torch.zeros(NUM_ENVS, 6), torch.ones(NUM_ENVS, dtype=torch.bool))
     sim.scene.update()
     assert torch.allclose(box.root_pos_env, torch.tensor([[0.2, -0.1, 1.0]] * NUM_ENVS), atol=1e-6)
+
+
+def test_model_file_object_keeps_the_files_shape_and_mass(tmp_path):
+    path = tmp_path / "crate.xml"
+    path.write_text("""<mujoco><worldbody><body name="crate"><freejoint/>
+        <geom type="box" size="0.05 0.05 0.05" mass="0.7"/></body></worldbody></mujoco>""")
+    sim = make_sim({"crate": RigidObjectCfg(shape=ModelFileShapeCfg(path=str(path)), init_pos_m=(0.0, 0.0, 0.4))})
+    reset_all(sim)
+    crate = sim.scene["crate"]
+    assert crate.body_names == ["crate"] and crate.body_mass[:, 0].tolist() == pytest.approx([0.7] * NUM_ENVS)
+    sim.step(200)
+    sim.scene.update()
+    assert crate.root_pos_w[:, 2].tolist() == pytest.approx([0.05] * NUM_ENVS, abs=3e-3)
