@@ -199,6 +199,11 @@ def test_an_object_file_that_does_not_load_names_the_entity(tmp_path):
         make_sim({"prop": RigidObjectCfg(shape=ModelFileShapeCfg(path=str(tmp_path / "missing.xml")))})
 
 
+def test_a_mass_for_a_kinematic_object_is_refused():
+    with pytest.raises(ConfigError, match=r"scene.entities.marker: mass_kg: a kinematic object has no mass"):
+        make_sim({"marker": RigidObjectCfg(body_type="kinematic", mass_kg=1.0)})
+
+
 def test_an_unknown_body_type_lists_the_valid_ones():
     with pytest.raises(ConfigError, match=r"scene.entities.box: body_type 'floating'.*'dynamic', 'kinematic', 'fixed'"):
         make_sim({"box": RigidObjectCfg(body_type="floating")})

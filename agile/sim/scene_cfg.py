@@ -110,7 +110,8 @@ class RigidObjectCfg:
     """'dynamic' (moved by forces and contacts), 'kinematic' (moved only by writes of its root state, pushes
     what it touches) or 'fixed' (welded to the env at its initial pose)."""
     mass_kg: float | None = None
-    """None: the mass follows from `density_kg_m3` and the shape's volume (as the inertia always does)."""
+    """None: the mass follows from `density_kg_m3` and the shape's volume (as the inertia always does). A
+    kinematic object has none (Newton's MuJoCo solver drives it as a mocap body)."""
     density_kg_m3: float = 1000.0
     friction: float = 1.0
     restitution: float = 0.0

@@ -135,9 +135,12 @@ def build_rigid_object(cfg: RigidObjectCfg, name: str, gravity_mps2: float) -> t
     every world can place it at its own env origin. Returns (builder, body names)."""
     if cfg.body_type not in BODY_TYPES:
         raise ValueError(f"body_type '{cfg.body_type}' is not one of {list(BODY_TYPES)}")
+    kinematic = cfg.body_type == "kinematic"
+    if kinematic and cfg.mass_kg is not None:
+        raise ValueError("mass_kg: a kinematic object has no mass (it moves only where its root state is written); "
+                         "leave mass_kg None or make it dynamic")
     builder = new_builder(gravity_mps2)
     xform = wp.transform(cfg.init_pos_m, cfg.init_rot_xyzw)
-    kinematic = cfg.body_type == "kinematic"
     # a kinematic body has no mass: Newton's MuJoCo solver then drives it as a mocap body from its coordinates
     density = 0.0 if kinematic else cfg.density_kg_m3
     shape_cfg = newton.ModelBuilder.ShapeConfig(density=density, mu=cfg.friction, restitution=cfg.restitution)
@@ -164,7 +167,7 @@ def build_rigid_object(cfg: RigidObjectCfg, name: str, gravity_mps2: float) -> t
         else:
             body = builder.add_body(xform=xform, is_kinematic=kinematic, label=name)
         add_shape(builder, body, shape, shape_cfg)
-    if cfg.mass_kg is not None and not kinematic:
+    if cfg.mass_kg is not None:
         if cfg.mass_kg <= 0.0:
             raise ValueError(f"mass_kg must be > 0 (or None for the density's), got {cfg.mass_kg}")
         scale = cfg.mass_kg / builder.body_mass[body]
