@@ -84,7 +84,7 @@ def entity_of(entities: dict, name: str, where: str) -> Entity:
     return entities[name]
 
 
-def filter_shape_ids(entities: dict, sensor_cfg, model: newton.Model, ground_shape: int, where: str):
+def filter_shape_ids(entities: dict, sensor_cfg, ground_shape: int, where: str):
     """Global shape indices (all worlds) a contact sensor's filter names, or None without a filter."""
     if sensor_cfg.filter_entity is None:
         return None

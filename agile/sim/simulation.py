@@ -132,7 +132,7 @@ class Simulation:
         for name, sensor_cfg in scene_cfg.contact_sensors.items():
             where = f"scene.contact_sensors.{name}"
             entity = entity_of(entities, sensor_cfg.entity, f"{where}.entity")
-            shapes = filter_shape_ids(entities, sensor_cfg, self.model, ground_shape, where)
+            shapes = filter_shape_ids(entities, sensor_cfg, ground_shape, where)
             try:
                 sensors[name] = ContactSensor(sensor_cfg, self.model, self.solver, self.sensor_contacts, entity,
                                               shapes, self.cfg.physics_dt_s, self.sensor_observables)

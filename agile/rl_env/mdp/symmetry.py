@@ -67,9 +67,7 @@ class GroupMirror:
 
     def __init__(self, env):
         robot = env.scene[env.action_manager.policy_entity_name()]
-        # the joint axes of world 0's copy of the robot, in its joint order
-        axes = env.sim.model.joint_axis.numpy().reshape(env.num_envs, -1, 3)[0]
-        axes = axes[robot.world_major_indices(list(range(robot.num_joints)))[1][:robot.num_joints].cpu().numpy()]
+        axes = robot.joint_axis[0].cpu().numpy()
         self.joint_perm, self.joint_sign = joint_mirror(robot.joint_names, axes)
         action_perm, action_sign = [], []
         for name, term in env.action_manager.terms.items():

@@ -29,13 +29,14 @@ def _as_list(t) -> list:
     return [round(float(x), 6) for x in t.flatten().tolist()]
 
 
-def _joint_names(env, ids) -> list[str]:
-    names = env.scene[env.action_manager.policy_entity_name()].joint_names
+def _joint_names(robot, ids) -> list[str]:
+    names = robot.joint_names
     return list(names) if isinstance(ids, slice) else [names[i] for i in ids.tolist()]
 
 
 def _observation_terms(env, group_name: str) -> list[dict]:
     group: ObsGroup = env.observation_manager.group_cfgs[group_name]
+    robot = env.scene[env.action_manager.policy_entity_name()]
     terms = []
     for name, term in collect_terms(group, ObsTerm).items():
         history = group.history_length if group.history_length is not None else term.history_length
@@ -44,7 +45,7 @@ def _observation_terms(env, group_name: str) -> list[dict]:
                  "scale": term.scale, "clip": list(term.clip) if term.clip else None, "history_length": history}
         for key, value in term.params.items():
             if isinstance(value, SceneEntityCfg):
-                entry["joint_names"] = _joint_names(env, value.joint_ids)
+                entry["joint_names"] = _joint_names(robot, value.joint_ids)
             else:
                 entry[key] = value
         terms.append(entry)
@@ -66,8 +67,7 @@ def _policy_interface(actor_cfg) -> dict:
 
 def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -> dict:
     """The IO descriptor of a policy trained on `env` (a ManagerBasedRLEnv) with `agent_cfg`."""
-    robot_name = env.action_manager.policy_entity_name()
-    robot = env.scene[robot_name]
+    robot = env.scene[env.action_manager.policy_entity_name()]
     actions = []
     for name, term in env.action_manager.terms.items():
         # a term without action dimensions (random upper-body targets) is not part of the policy's output
@@ -81,7 +81,7 @@ def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -
     groups = agent_cfg.obs_groups["actor"]
     actuators = {}
     for group in robot.actuator_groups:
-        entry = {"type": type(group.cfg).__name__, "joint_names": _joint_names(env, group.joint_ids)}
+        entry = {"type": type(group.cfg).__name__, "joint_names": _joint_names(robot, group.joint_ids)}
         for key in ("min_delay", "max_delay"):
             if hasattr(group, key):
                 entry[key] = int(getattr(group, key))

@@ -64,6 +64,8 @@ class Articulation(Entity):
         self.soft_joint_pos_limits = mid + (self.joint_pos_limits - mid) * cfg.soft_joint_pos_limit_factor
         """(N, J, 2) limits the position-limit penalty uses (Isaac Lab `soft_joint_pos_limits`) [rad]."""
         self.joint_vel_limit = per_dof(model.joint_velocity_limit)
+        self.joint_axis = wp.to_torch(model.joint_axis).view(n, -1, 3)[:, joint_dofs]
+        """(N, J, 3) each joint's axis in its parent frame (the mirror functions read its signs)."""
         # world 0's joint parameters as built, before domain randomisation: what an exported policy's robot has
         self.nominal_joint_stiffness = self.joint_stiffness[0].clone()
         self.nominal_joint_damping = self.joint_damping[0].clone()

@@ -91,18 +91,15 @@ class Entity:
         self.body_inertia = world_block(model.body_inertia, n, 3, 3)[:, layout.bodies]  # about the COM
         self._body_inv_mass = wp.to_torch(model.body_inv_mass).view(n, -1)[:, layout.bodies]
         self._body_inv_inertia = world_block(model.body_inv_inertia, n, 3, 3)[:, layout.bodies]
-        self.shape_ids = self._shape_ids(model)
-        """(N, S) global indices of the entity's shapes (world-major), for per-shape materials."""
-        self.shape_body = self._shape_local_body(model)
-        """(S,) the entity-local body of each of its shapes."""
+        self.shape_ids, self.shape_body = self._shapes(model)
+        """(N, S) global indices of the entity's shapes (world-major), for per-shape materials; (S,) the
+        entity-local body of each of its shapes."""
         # -- defaults (copies: what a reset returns to, relative to the env origin)
         self.default_body_mass = self.body_mass.clone()
         """Body masses as built [kg]: what each mass randomisation draws from (Isaac Lab)."""
         self.default_root_pose = self.root_pose_w.clone()
         # -- derived, refreshed by update()
         self.gravity_dir_w = torch.tensor(GRAVITY_DIR_W, device=self.device).expand(n, 3)
-        self.root_pos_env = torch.zeros(n, 3, device=self.device)
-        """Root position relative to the env origin [m] (the env frame: world axes, origin at the env's)."""
         self.root_lin_vel_b = torch.zeros(n, 3, device=self.device)
         self.root_ang_vel_b = torch.zeros(n, 3, device=self.device)
         self.projected_gravity_b = torch.zeros(n, 3, device=self.device)
@@ -115,20 +112,23 @@ class Entity:
         self._prev_body_vel_w = self.body_vel_w.clone()
         self._body_acc_valid = torch.zeros(n, 1, 1, dtype=torch.bool, device=self.device)
 
-    def _shape_ids(self, model: newton.Model) -> torch.Tensor:
+    def _shapes(self, model: newton.Model) -> tuple[torch.Tensor, torch.Tensor]:
+        """(N, S) global indices of the entity's shapes, world-major, and (S,) the entity-local body of each."""
         bodies_per_world = model.body_count // model.world_count
         shape_body = model.shape_body.numpy()
         world = shape_body // bodies_per_world
-        local = shape_body % bodies_per_world
-        mine = (shape_body >= 0) & (local >= self.layout.bodies.start) & (local < self.layout.bodies.stop)
+        local = shape_body % bodies_per_world - self.layout.bodies.start
+        mine = (shape_body >= 0) & (local >= 0) & (local < self.num_bodies)
         ids = mine.nonzero()[0]
-        ids = ids[np.argsort(world[ids], kind="stable")]  # world-major, each world's shapes in model order
-        return torch.as_tensor(ids.reshape(self.num_envs, -1), dtype=torch.long, device=self.device)
+        ids = ids[np.argsort(world[ids], kind="stable")].reshape(self.num_envs, -1)  # each world's in model order
+        return (torch.as_tensor(ids, dtype=torch.long, device=self.device),
+                torch.as_tensor(local[ids[0]], dtype=torch.long, device=self.device))
 
-    def _shape_local_body(self, model: newton.Model) -> torch.Tensor:
-        bodies_per_world = model.body_count // model.world_count
-        first_world = model.shape_body.numpy()[self.shape_ids[0].cpu().numpy()]
-        return torch.as_tensor(first_world % bodies_per_world - self.layout.bodies.start, device=self.device)
+    @property
+    def root_pos_env(self) -> torch.Tensor:
+        """Root position relative to the env origin [m] (the env frame: world axes, origin at the env's);
+        computed when read, as few terms need it."""
+        return self.root_pos_w - self.env_origins
 
     # -- selection ------------------------------------------------------------------------------
 
@@ -140,7 +140,6 @@ class Entity:
     def update(self) -> None:
         """Refresh derived quantities from the state; once per env step, after physics or a reset."""
         quat = self.root_quat_w
-        torch.sub(self.root_pos_w, self.env_origins, out=self.root_pos_env)
         self.root_lin_vel_b[:] = quat_rotate_inverse(quat, self.root_lin_vel_w)
         self.root_ang_vel_b[:] = quat_rotate_inverse(quat, self.root_ang_vel_w)
         self.projected_gravity_b[:] = quat_rotate_inverse(quat, self.gravity_dir_w)
