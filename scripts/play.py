@@ -4,9 +4,11 @@
     python scripts/play.py --task Velocity-T1-v0 --checkpoint logs/rsl_rl/velocity_t1/<run>/model_3000.pt
     python scripts/play.py --task Velocity-T1-v0 --sinusoidal       # test actions, no policy
     python scripts/play.py --task Velocity-G1-History-v0 --viewer viser   # browser viewer on http://localhost:8080
+    python scripts/play.py --task Debug-G1-v0        # joint sliders and the mirrored twin, in the browser
 
 Without --checkpoint the task's shipped policy runs if agile has one (agile/data/policy/), else
-sinusoidal test actions. Headless by default. Observation noise and curricula are switched off.
+sinusoidal test actions. A debug task opens the browser GUI and takes its actions from the sliders.
+Otherwise headless by default. Observation noise and curricula are switched off.
 """
 
 from __future__ import annotations
@@ -17,6 +19,8 @@ import time
 
 from utils import cli
 from utils.policy import inference_cfg, load_policy
+
+from agile.gui.viewer import LOCAL_HOST
 
 
 def sinusoidal_actions(step: int, step_dt: float, num_envs: int, action_dim: int, device):
@@ -29,20 +33,18 @@ def sinusoidal_actions(step: int, step_dt: float, num_envs: int, action_dim: int
     return (0.5 * torch.sin(2 * math.pi * freq_hz * t + i * math.pi / action_dim)).expand(num_envs, -1)
 
 
-LOCAL_HOST = "127.0.0.1"
+DEFAULT_HEADLESS_STEPS = 1000
 
 
-def open_viewer(model, port: int, host: str = LOCAL_HOST):
-    """The viser viewer of `model`, listening on `host` only (the loopback address unless the user says)."""
-    import newton.viewer
+def with_visual_meshes(env_cfg):
+    """The viewer draws the robots' visual meshes, which headless runs do not load."""
+    import dataclasses
 
-    if host not in (LOCAL_HOST, "localhost", "::1"):
-        print(f"[agile] warning: the viewer listens on {host}:{port} without authentication: anyone who can reach "
-              f"that address watches the run (and drives it, once a GUI has controls)")
-    viewer = newton.viewer.ViewerViser(port=port, host=host)
-    viewer.set_model(model)
-    print(f"[agile] viewer on http://{'localhost' if host == LOCAL_HOST else host}:{port}")
-    return viewer
+    from agile.sim.scene_cfg import ArticulationCfg
+
+    env_cfg.scene.entities = {name: dataclasses.replace(cfg, parse_visuals=True) if isinstance(cfg, ArticulationCfg)
+                              else cfg for name, cfg in env_cfg.scene.entities.items()}
+    return env_cfg
 
 
 def main(argv=None) -> None:
@@ -50,9 +52,15 @@ def main(argv=None) -> None:
     cli.add_common_args(parser)
     parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (model_<it>.pt) to run")
     parser.add_argument("--sinusoidal", action="store_true", help="sinusoidal test actions instead of a policy")
-    parser.add_argument("--num_steps", type=int, default=1000, help="env steps to run")
-    parser.add_argument("--viewer", choices=["none", "viser"], default="none", help="viser: browser viewer")
+    parser.add_argument("--num_steps", type=int, default=None,
+                        help=f"env steps to run (default: {DEFAULT_HEADLESS_STEPS} headless; with the viewer until "
+                             "Ctrl-C)")
+    parser.add_argument("--viewer", choices=["none", "viser"], default=None,
+                        help="viser: browser viewer with reward plot, commands, pause and step (default: viser for "
+                             "debug tasks, none otherwise)")
     parser.add_argument("--port", type=int, default=8080, help="viser port")
+    parser.add_argument("--no_follow", action="store_true", help="the viewer's camera stays put (it follows env 0 "
+                        "by default; a checkbox in the page switches it)")
     parser.add_argument("--host", default=LOCAL_HOST,
                         help=f"address the viewer listens on (default {LOCAL_HOST}: this machine only; from another "
                              "machine use SSH port forwarding, see the README). 0.0.0.0 exposes it to the network")
@@ -61,64 +69,95 @@ def main(argv=None) -> None:
     parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
     cli.add_checkpoint_args(parser)
     args = parser.parse_args(argv)
+    import agile.tasks
+
+    try:
+        debug_task = agile.tasks.task_kind(args.task) == "debug"
+    except KeyError as err:
+        raise SystemExit(f"error: {err.args[0]}") from None
+    viewer_on = (args.viewer or ("viser" if debug_task else "none")) == "viser"
+    slider_actions = debug_task and viewer_on and args.checkpoint is None and not args.sinusoidal
+    num_steps = args.num_steps if args.num_steps is not None else (None if viewer_on else DEFAULT_HEADLESS_STEPS)
 
     checkpoint = args.checkpoint
-    if checkpoint is None and not args.sinusoidal:
+    if checkpoint is None and not args.sinusoidal and not slider_actions:
         checkpoint = cli.shipped_policy(args)
     contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint) if checkpoint and not args.sinusoidal \
         else None
     env_cfg, agent_cfg, device = cli.load_task(args)
     import torch
-    env = cli.make_env(args.task, inference_cfg(env_cfg), device)
+    env_cfg = inference_cfg(env_cfg)
+    env = cli.make_env(args.task, with_visual_meshes(env_cfg) if viewer_on else env_cfg, device)
     policy = load_policy(contents, env, agent_cfg) if contents is not None else None
-    print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
-          f"{'policy ' + checkpoint if policy else 'sinusoidal test actions'}")
 
-    viewer = None
-    if args.viewer == "viser":
-        viewer = open_viewer(env.sim.model, args.port, args.host)
+    viewer = sliders = None
+    if viewer_on:
+        from agile.gui import ActionSliders, BrowserViewer
+
+        viewer = BrowserViewer(env, args.port, args.host, follow=not args.no_follow)
+        if slider_actions:
+            sliders = ActionSliders(viewer.server, env)
+        print(f"[agile] viewer on {viewer.url} (Ctrl-C to stop)")
+    source = ("policy " + checkpoint if policy else "the GUI's sliders" if sliders else "sinusoidal test actions")
+    print(f"[agile] {args.task}: {env.num_envs} envs on {device}, {source}")
 
     recorder = None
     if args.usd:
         from utils.recording import UsdRecorder
 
-        recorder = UsdRecorder(args.usd, env, num_frames=args.num_steps)
+        recorder = UsdRecorder(args.usd, env, num_frames=num_steps or DEFAULT_HEADLESS_STEPS)
     video = None
     if args.video:
         from utils.recording import VideoRecorder
 
         video = VideoRecorder(args.video, env)
     obs, _ = env.reset()
-    episodes = falls = 0
+    episodes = falls = step = 0
     reward_sum = torch.zeros((), device=env.device)
     wall_start = time.perf_counter()
-    with torch.inference_mode():
-        for step in range(args.num_steps):
-            start = time.perf_counter()
-            if policy is not None:
-                actions = policy(obs)
-            else:
-                actions = sinusoidal_actions(step, env.step_dt, env.num_envs, env.action_manager.total_action_dim,
-                                             env.device)
-            obs, reward, terminated, truncated, _ = env.step(actions)
-            reward_sum += reward.mean()
-            episodes += int((terminated | truncated).sum())
-            falls += int(terminated.sum())
-            if recorder is not None:
-                recorder.record(env, step * env.step_dt)
-            if video is not None:
-                video.record(env)
-            if viewer is not None:
-                if not viewer.is_running():
-                    break
-                viewer.begin_frame(step * env.step_dt)
-                viewer.log_state(env.sim.state)
-                viewer.end_frame()
-            if args.real_time:
-                time.sleep(max(0.0, env.step_dt - (time.perf_counter() - start)))
+    try:
+        with torch.inference_mode():
+            while num_steps is None or step < num_steps:
+                start = time.perf_counter()
+                if viewer is not None:
+                    if not viewer.is_running():
+                        break
+                    if viewer.reset_requested or (sliders is not None and sliders.reset_requested):
+                        obs, _ = env.reset()
+                        viewer.reset_requested = False
+                        if sliders is not None:
+                            sliders.after_reset()
+                    if not viewer.should_step():  # paused: keep drawing and answering the page
+                        viewer.render(env, step * env.step_dt)
+                        time.sleep(env.step_dt)
+                        continue
+                if policy is not None:
+                    actions = policy(obs)
+                elif sliders is not None:
+                    actions = sliders.actions()
+                else:
+                    actions = sinusoidal_actions(step, env.step_dt, env.num_envs, env.action_manager.total_action_dim,
+                                                 env.device)
+                obs, reward, terminated, truncated, _ = env.step(actions)
+                step += 1
+                reward_sum += reward.mean()
+                episodes += int((terminated | truncated).sum())
+                falls += int(terminated.sum())
+                if recorder is not None:
+                    recorder.record(env, step * env.step_dt)
+                if video is not None:
+                    video.record(env)
+                if viewer is not None:
+                    viewer.render(env, step * env.step_dt)
+                    if sliders is not None:
+                        sliders.update()
+                if args.real_time or viewer is not None:  # a viewer shows the motion at its real speed
+                    time.sleep(max(0.0, env.step_dt - (time.perf_counter() - start)))
+    except KeyboardInterrupt:
+        print("[agile] stopped")
     elapsed = time.perf_counter() - wall_start
-    print(f"[agile] {step + 1} steps in {elapsed:.1f} s ({(step + 1) * env.num_envs / elapsed:.0f} env-steps/s); "
-          f"mean reward per step {float(reward_sum) / (step + 1):.4f}; episodes ended {episodes}, by failure {falls}")
+    print(f"[agile] {step} steps in {elapsed:.1f} s ({step * env.num_envs / elapsed:.0f} env-steps/s); "
+          f"mean reward per step {float(reward_sum) / max(step, 1):.4f}; episodes ended {episodes}, by failure {falls}")
     if viewer is not None:
         viewer.close()
     if recorder is not None:

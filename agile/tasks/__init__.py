@@ -7,6 +7,7 @@ from pathlib import Path
 import gymnasium as gym
 import yaml
 
+from agile.tasks import debug  # noqa: F401  (registration side effect)
 from agile.tasks.locomotion import g1, t1  # noqa: F401  (registration side effect)
 from agile.utils.config import load_entry_point
 
@@ -22,6 +23,14 @@ def task_spec(task: str) -> gym.envs.registration.EnvSpec:
     if task not in registered_tasks():
         raise KeyError(f"unknown task '{task}'. Registered tasks: {registered_tasks()}")
     return gym.spec(task)
+
+
+TASK_KINDS = ("trainable", "debug")
+
+
+def task_kind(task: str) -> str:
+    """'debug' for tasks run by hand in the browser GUI (their registration says `kind`), else 'trainable'."""
+    return task_spec(task).kwargs.get("kind", "trainable")
 
 
 def load_cfgs(task: str):

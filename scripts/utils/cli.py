@@ -97,7 +97,7 @@ def load_task(args) -> tuple:
     if args.num_envs is not None:
         env_cfg.num_envs = args.num_envs
     elif device == "cpu":
-        env_cfg.num_envs = CPU_DEFAULT_NUM_ENVS
+        env_cfg.num_envs = min(env_cfg.num_envs, CPU_DEFAULT_NUM_ENVS)
     if args.seed is not None:
         env_cfg.seed = args.seed
         agent_cfg.seed = args.seed

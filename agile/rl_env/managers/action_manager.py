@@ -5,6 +5,7 @@ from __future__ import annotations
 import torch
 
 from agile.rl_env.managers.manager_base import build_class_terms
+from agile.utils.config import ConfigError
 
 
 class ActionTerm:
@@ -27,11 +28,20 @@ class ActionTerm:
     def reset(self, env_mask: torch.Tensor) -> None:
         pass
 
+    def link(self, terms: dict[str, ActionTerm]) -> None:
+        """Called once all terms are built, with every term by name: a term that reads another term (a
+        mirrored copy of its targets) looks it up here. Raise ValueError for a bad reference."""
+
 
 class ActionManager:
     def __init__(self, cfg, env):
         self.env = env
         self.terms: dict[str, ActionTerm] = build_class_terms(cfg, env, "action")
+        for name, term in self.terms.items():
+            try:
+                term.link(self.terms)
+            except (ValueError, KeyError) as err:
+                raise ConfigError(f"task '{env.task_name}', action term '{name}': {err}") from None
         self.total_action_dim = sum(t.action_dim for t in self.terms.values())
         n = env.num_envs
         self.action = torch.zeros(n, self.total_action_dim, device=env.device)
@@ -49,8 +59,11 @@ class ActionManager:
 
     def policy_entity_name(self) -> str:
         """The one articulation the policy's action terms drive (`asset_name`): the robot whose joints an
-        exported policy and the symmetry functions describe."""
-        names = sorted({term.cfg.asset_name for term in self.terms.values() if term.action_dim > 0})
+        exported policy and the symmetry functions describe. Terms that pose a rigid object do not count."""
+        from agile.sim.entities import Articulation
+
+        names = sorted({term.cfg.asset_name for term in self.terms.values()
+                        if term.action_dim > 0 and isinstance(self.env.scene[term.cfg.asset_name], Articulation)})
         if len(names) != 1:
             raise ValueError(f"the policy's action terms drive {len(names)} entities {names}; exports and symmetry "
                              f"need exactly one")

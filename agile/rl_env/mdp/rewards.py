@@ -18,6 +18,11 @@ def is_terminated(env) -> torch.Tensor:
     return env.termination_manager.terminated.float()
 
 
+def is_alive(env) -> torch.Tensor:
+    """1 for envs whose episode goes on (no failure this step)."""
+    return (~env.termination_manager.terminated).float()
+
+
 def track_lin_vel_xy_exp(env, std: float, command_name: str, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
     """exp(-|v_cmd,xy - v_xy|² / std²), velocities in the root frame."""
     robot = env.scene[asset_cfg.name]
@@ -268,3 +273,23 @@ def feet_air_time_positive_biped(env, command_name: str, threshold_s: float, sen
     single_stance = torch.sum(in_contact.int(), dim=1) == 1
     reward = torch.where(single_stance.unsqueeze(-1), phase_time, 0.0).amin(dim=1).clamp(max=threshold_s)
     return reward * _moving_command(env, command_name, min_command_speed_mps)
+
+
+# -- objects --------------------------------------------------------------------------------------
+
+OBJECT = SceneEntityCfg("object")
+
+
+def object_is_lifted(env, minimal_height_m: float, object_cfg: SceneEntityCfg = OBJECT) -> torch.Tensor:
+    """1 while the object's root is higher than `minimal_height_m` above its env origin (Isaac Lab's)."""
+    return (env.scene[object_cfg.name].root_pos_env[:, 2] > minimal_height_m).float()
+
+
+def object_body_distance_exp(env, std_m: float, body_cfg: SceneEntityCfg,
+                             object_cfg: SceneEntityCfg = OBJECT) -> torch.Tensor:
+    """exp(-d / std) with d the distance [m] from the object's root to the first selected body's origin (a
+    palm or fingertip reaching for the object)."""
+    robot = env.scene[body_cfg.name]
+    body_pos_w = robot.body_pose_w[:, body_cfg.body_ids, :3].reshape(env.num_envs, -1, 3)[:, 0]
+    distance = torch.linalg.norm(env.scene[object_cfg.name].root_pos_w - body_pos_w, dim=-1)
+    return torch.exp(-distance / std_m)
