@@ -127,9 +127,9 @@ def main(argv=None) -> None:
                         viewer.reset_requested = False
                         if sliders is not None:
                             sliders.after_reset()
-                    if not viewer.should_step():  # paused: keep drawing and answering the page
+                    if not viewer.should_step():  # paused: keep answering the page, at 10 Hz
                         viewer.render(env, step * env.step_dt)
-                        time.sleep(env.step_dt)
+                        time.sleep(0.1)
                         continue
                 if policy is not None:
                     actions = policy(obs)

@@ -20,16 +20,16 @@ LOCAL_HOST = "127.0.0.1"
 CAMERA_PITCH_DEG = -12.0
 CAMERA_YAW_DEG = 200.0
 """Looking back at the robots' fronts (they face +x) from slightly to their right."""
-CLIENT_SETTLE_S = 0.5
-"""A newly connected browser receives Newton's stored camera when it connects; the orbit pivot is moved onto
-env 0 this long after, once that has arrived."""
+CLIENT_SETTLE_S = 1.0
+"""How long a newly connected browser's camera is held on the framing of env 0: on connecting it also receives
+Newton's stored camera, whose orbit point is not env 0."""
 
 
 def camera_pose(target_m: np.ndarray, spread_m: float, pitch_deg: float = CAMERA_PITCH_DEG,
                 yaw_deg: float = CAMERA_YAW_DEG) -> tuple[np.ndarray, float]:
     """(camera position [m], distance [m]) looking at `target_m` along the (pitch, yaw) direction, far enough
     to show a humanoid with a 45° field of view, plus the spread of several entities side by side."""
-    distance = 2.2 + 1.2 * spread_m
+    distance = 2.6 + 1.2 * spread_m
     pitch, yaw = math.radians(pitch_deg), math.radians(yaw_deg)
     front = np.array([math.cos(yaw) * math.cos(pitch), math.sin(yaw) * math.cos(pitch), math.sin(pitch)])
     return target_m - front * distance, distance
@@ -50,17 +50,20 @@ class BrowserViewer:
         # the worlds already sit at their env origins (a grid or terrain cells): no extra offsets
         self.viewer.set_world_offsets((0.0, 0.0, 0.0))
         self.server = self.viewer.server
+        # the controls in a sidebar, not over the 3D view: the framed robots stay in the middle of what is seen
+        self.server.gui.configure_theme(control_layout="fixed", control_width="medium", show_share_button=False)
         self.url = f"http://{'localhost' if host == LOCAL_HOST else host}:{port}"
         self.reset_requested = False
         self.viewer.set_reset_callback(self._request_reset)
         self._entities = [e for e in env.scene.entities.values() if not getattr(e, "body_type", "") == "fixed"]
-        self._target_m = self._env0_target()
-        self._client_seen_s: dict[int, float] = {}
-        self._framed_clients: set[int] = set()
+        self._framing_since: dict[int, float] = {}
+        """When each browser was (re)framed on env 0 [s, monotonic clock]."""
+        self._written_target: dict[int, np.ndarray] = {}
+        """Env 0's position when each browser's camera was last written [m]."""
         with self.server.gui.add_folder("Camera", order=1.0):
             self.follow = self.server.gui.add_checkbox("Follow env 0", initial_value=follow)
             frame = self.server.gui.add_button("Frame env 0")
-        frame.on_click(lambda _event: self._framed_clients.clear())
+        frame.on_click(lambda _event: self._framing_since.clear())
         self.rewards = RewardPlot(self.server, env)
         self.commands = CommandPanel(self.server, env)
         self.frame_env0()
@@ -73,44 +76,40 @@ class BrowserViewer:
         roots = torch.stack([e.root_pos_w[0] for e in self._entities]).detach().cpu().numpy()
         return roots.mean(axis=0)
 
-    def _env0_spread_m(self) -> float:
+    def _framing_offset(self) -> np.ndarray:
+        """Camera position relative to env 0's entities for a view of all of them [m]."""
         roots = torch.stack([e.root_pos_w[0] for e in self._entities]).detach().cpu().numpy()
-        return float(np.linalg.norm(roots.max(axis=0) - roots.min(axis=0)))
+        spread_m = float(np.linalg.norm(roots.max(axis=0) - roots.min(axis=0)))
+        position, _ = camera_pose(roots.mean(axis=0), spread_m)
+        return position - roots.mean(axis=0)
 
     def frame_env0(self) -> None:
-        """Point every browser (and the ones that connect later) at env 0's entities."""
-        position, _ = camera_pose(self._target_m, self._env0_spread_m())
-        self.viewer.set_camera(tuple(position), pitch=CAMERA_PITCH_DEG, yaw=CAMERA_YAW_DEG)
-        self._framed_clients.clear()
-
-    def _frame_new_clients(self) -> None:
-        """Put each browser's orbit pivot on env 0 (Newton's camera sets the view direction only), once."""
-        now = time.monotonic()
-        position, _ = camera_pose(self._target_m, self._env0_spread_m())
-        for client_id, client in self.server.get_clients().items():
-            if client_id in self._framed_clients:
-                continue
-            seen = self._client_seen_s.setdefault(client_id, now)
-            if now - seen < CLIENT_SETTLE_S:
-                continue
-            with client.atomic():
-                client.camera.position = position
-                client.camera.look_at = self._target_m
-                client.camera.up_direction = (0.0, 0.0, 1.0)
-            self._framed_clients.add(client_id)
-
-    def _follow(self) -> None:
-        """Move every framed browser's camera with env 0's entities, keeping the user's orbit and zoom."""
+        """Point every browser (those connected, and the next ones) at env 0's entities."""
         target = self._env0_target()
-        delta = target - self._target_m
-        self._target_m = target
-        if not self.follow.value or not np.any(np.abs(delta) > 1e-4):
-            return
+        self.viewer.set_camera(tuple(target + self._framing_offset()), pitch=CAMERA_PITCH_DEG, yaw=CAMERA_YAW_DEG)
+        self._framing_since.clear()
+
+    def _update_cameras(self) -> None:
+        """Each browser looks at env 0: framed for a moment after it connects (or after "Frame env 0"), then,
+        while "Follow env 0" is on, moved with env 0 keeping the user's orbit and zoom.
+
+        Cameras are written whole (position, look-at point, up) from env 0's position and an offset, never
+        by adding to what a browser last reported: reports arrive a frame or two late."""
+        target = self._env0_target()
+        now = time.monotonic()
         for client_id, client in self.server.get_clients().items():
-            if client_id in self._framed_clients:
-                with client.atomic():
-                    client.camera.position = client.camera.position + delta
-                    client.camera.look_at = client.camera.look_at + delta
+            since = self._framing_since.setdefault(client_id, now)
+            if now - since < CLIENT_SETTLE_S:
+                offset = self._framing_offset()
+            elif self.follow.value and np.abs(target - self._written_target.get(client_id, target)).max() > 1e-3:
+                offset = client.camera.position - client.camera.look_at
+            else:
+                continue  # nothing moved: every write makes the browser draw again
+            self._written_target[client_id] = target
+            with client.atomic():  # position first: viser moves look_at with it, then look_at is set
+                client.camera.position = target + offset
+                client.camera.look_at = target
+                client.camera.up_direction = (0.0, 0.0, 1.0)
 
     def should_step(self) -> bool:
         """False while the user has paused the run (Newton's Pause), True once per click on Step."""
@@ -124,8 +123,7 @@ class BrowserViewer:
         self.viewer.begin_frame(time_s)
         self.viewer.log_state(env.sim.state)
         self.viewer.end_frame()
-        self._follow()
-        self._frame_new_clients()
+        self._update_cameras()
         self.rewards.update(env)
         self.commands.update(env)
 
