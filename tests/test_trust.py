@@ -97,23 +97,21 @@ def free_port() -> int:
 
 @pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="reads the listening sockets from /proc (Linux)")
 def test_viewer_listens_on_loopback_unless_a_host_is_given(capsys):
-    import play
-    from scenes import robot_sim
+    import gymnasium as gym
 
-    from agile.sim import ArticulationCfg
+    import agile.tasks  # noqa: F401
+    from agile.gui import BrowserViewer
 
-    import newton.examples
-
-    sim = robot_sim(ArticulationCfg(model_file=str(newton.examples.get_asset("nv_humanoid.xml"))), 1)
+    env = gym.make("Debug-T1-v0", device="cpu").unwrapped
     port = free_port()
-    viewer = play.open_viewer(sim.model, port)
+    viewer = BrowserViewer(env, port)
     try:
         assert listening_addresses(port) == {"127.0.0.1"}
     finally:
         viewer.close()
     assert "warning" not in capsys.readouterr().out
     port = free_port()
-    viewer = play.open_viewer(sim.model, port, host="0.0.0.0")
+    viewer = BrowserViewer(env, port, host="0.0.0.0")
     try:
         assert listening_addresses(port) == {"0.0.0.0"}
     finally:

@@ -51,7 +51,7 @@ class BrowserViewer:
         self.viewer.set_world_offsets((0.0, 0.0, 0.0))
         self.server = self.viewer.server
         # the controls in a sidebar, not over the 3D view: the framed robots stay in the middle of what is seen
-        self.server.gui.configure_theme(control_layout="fixed", control_width="medium", show_share_button=False)
+        self.server.gui.main_panel.dock_right()
         self.url = f"http://{'localhost' if host == LOCAL_HOST else host}:{port}"
         self.reset_requested = False
         self.viewer.set_reset_callback(self._request_reset)
