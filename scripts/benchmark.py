@@ -210,7 +210,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = cli.new_parser(__doc__)
     parser.add_argument("--task", required=True)
     parser.add_argument("--num_envs", type=int, nargs="+", default=[1024, 4096, 16384])
     parser.add_argument("--device", default=None)
@@ -218,7 +218,7 @@ def main(argv=None) -> None:
     parser.add_argument("--train_iterations", type=int, default=5)
     parser.add_argument("--out", default=None, help="write the results as JSON here")
     parser.add_argument("overrides", nargs="*", help=cli.OVERRIDE_HELP)
-    args = parser.parse_args(argv)
+    args = cli.parse(parser, argv)
 
     import torch
 

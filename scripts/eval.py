@@ -64,7 +64,7 @@ def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity"
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = cli.new_parser(__doc__)
     cli.add_common_args(parser)
     parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (default: the shipped policy)")
     parser.add_argument("--command", type=float, nargs=3, default=None, metavar=("VX", "VY", "WZ"),
@@ -76,11 +76,11 @@ def main(argv=None) -> None:
     parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
     parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
     cli.add_checkpoint_args(parser)
-    args = parser.parse_args(argv)
+    args = cli.parse(parser, argv)
 
     checkpoint = args.checkpoint or cli.shipped_policy(args)
     if checkpoint is None:
-        raise SystemExit(f"error: no --checkpoint given and agile ships no policy for {args.task}")
+        cli.fail(f"no --checkpoint given and agile ships no policy for {args.task}")
     contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint)
     env_cfg, agent_cfg, device = cli.load_task(args)
     env_cfg = inference_cfg(env_cfg)

@@ -28,17 +28,17 @@ def export(task: str, env, agent_cfg, runner, out_dir: str) -> dict:
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = cli.new_parser(__doc__)
     cli.add_common_args(parser)
     parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (default: the shipped policy)")
     parser.add_argument("--out", required=True, help="output folder")
     cli.add_checkpoint_args(parser)
-    args = parser.parse_args(argv)
+    args = cli.parse(parser, argv)
     if args.num_envs is None:
         args.num_envs = 1
     checkpoint = args.checkpoint or cli.shipped_policy(args)
     if checkpoint is None:
-        raise SystemExit(f"error: no --checkpoint given and agile ships no policy for {args.task}")
+        cli.fail(f"no --checkpoint given and agile ships no policy for {args.task}")
     contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint)
     env_cfg, agent_cfg, device = cli.load_task(args)
     env = cli.make_env(args.task, inference_cfg(env_cfg), device)

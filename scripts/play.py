@@ -48,7 +48,7 @@ def with_visual_meshes(env_cfg):
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = cli.new_parser(__doc__)
     cli.add_common_args(parser)
     parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (model_<it>.pt) to run")
     parser.add_argument("--sinusoidal", action="store_true", help="sinusoidal test actions instead of a policy")
@@ -68,13 +68,13 @@ def main(argv=None) -> None:
     parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
     parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
     cli.add_checkpoint_args(parser)
-    args = parser.parse_args(argv)
+    args = cli.parse(parser, argv)
     import agile.tasks
 
     try:
         debug_task = agile.tasks.task_kind(args.task) == "debug"
     except KeyError as err:
-        raise SystemExit(f"error: {err.args[0]}") from None
+        cli.fail(f"{err.args[0]}")
     viewer_on = (args.viewer or ("viser" if debug_task else "none")) == "viser"
     slider_actions = debug_task and viewer_on and args.checkpoint is None and not args.sinusoidal
     num_steps = args.num_steps if args.num_steps is not None else (None if viewer_on else DEFAULT_HEADLESS_STEPS)

@@ -11,7 +11,7 @@ replaces the earlier ones from its first iteration on.
 from __future__ import annotations
 
 import argparse
-import sys
+from utils import cli
 
 DEFAULT_TAGS = ["Train/mean_episode_length", "Train/mean_reward", "Episode_Reward/track_lin_vel_xy_exp"]
 AXIS_LABELS = {"Train/mean_episode_length": "mean episode length [steps]", "Train/mean_reward": "mean reward",
@@ -43,17 +43,19 @@ def read_scalars(files: list[str], tag: str) -> tuple[list[int], list[float]]:
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = cli.new_parser(__doc__)
     parser.add_argument("--run", action="append", required=True, help="LABEL=file[,file...]")
     parser.add_argument("--out", required=True, help="PNG file")
     parser.add_argument("--tag", action="append", default=None,
                         help=f"tensorboard scalar to plot, one panel each (default: {', '.join(DEFAULT_TAGS)})")
     parser.add_argument("--title", default="")
-    args = parser.parse_args(argv)
+    args = cli.parse(parser, argv)
     tags = args.tag or DEFAULT_TAGS
 
-    import matplotlib
-
+    try:
+        import matplotlib
+    except ImportError:
+        cli.fail("plotting needs matplotlib, an optional extra: pip install -e \".[plot]\"")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -64,7 +66,7 @@ def main(argv=None) -> None:
         for ax, tag in zip(axes, tags):
             steps, values = read_scalars(files.split(","), tag)
             if not steps:
-                sys.exit(f"error: no scalar '{tag}' in {files}")
+                cli.fail(f"no scalar '{tag}' in {files}")
             ax.plot(steps, values, label=label)
             ax.set_xlabel("PPO iteration")
             ax.set_ylabel(AXIS_LABELS.get(tag, tag))

@@ -21,6 +21,7 @@ from collections import deque
 from pathlib import Path
 
 import numpy as np
+from utils import cli
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # for agile.assets (robot files) from a checkout
 
@@ -270,7 +271,7 @@ def default_mjcf(descriptor: dict) -> str:
     robots = {"t1.xml": "booster_t1/t1.xml", "g1_mjx.xml": "unitree_g1/g1_mjx.xml", "g1.xml": "unitree_g1/g1.xml"}
     name = descriptor["robot_model_file"]
     if name not in robots:
-        raise SystemExit(f"error: pass --mjcf for robot file '{name}'")
+        cli.fail(f"pass --mjcf for robot file '{name}'")
     return asset_file(robots[name])
 
 
@@ -293,8 +294,8 @@ class MujocoVideo:
 
     def __call__(self, mj_model, data) -> None:
         if data.qpos.shape[0] != self.model.joint_coord_count:
-            raise SystemExit(f"error: MuJoCo has {data.qpos.shape[0]} position coordinates, Newton's import of the "
-                             f"same MJCF {self.model.joint_coord_count}: cannot copy the pose for the video")
+            cli.fail(f"MuJoCo has {data.qpos.shape[0]} position coordinates, Newton's import of the same MJCF "
+                     f"{self.model.joint_coord_count}: cannot copy the pose for the video")
         q = data.qpos.astype(np.float32)
         q[3:7] = q[[4, 5, 6, 3]]  # free-joint quaternion: MuJoCo w, x, y, z -> Newton x, y, z, w
         self.state.joint_q.assign(q)
@@ -306,7 +307,7 @@ class MujocoVideo:
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = cli.new_parser(__doc__)
     parser.add_argument("--io", required=True, help="io_descriptor.yaml written by scripts/export.py")
     parser.add_argument("--policy", required=True, help="policy.pt (TorchScript) or policy.onnx")
     parser.add_argument("--mjcf", default=None, help="robot MJCF (default: the asset package's file)")
@@ -318,14 +319,14 @@ def main(argv=None) -> None:
     parser.add_argument("--out", default=None, help="write the metrics as JSON here")
     parser.add_argument("--video", default=None, metavar="PATH.mp4",
                         help="render the rollout headless into an mp4 (camera following the robot)")
-    args = parser.parse_args(argv)
+    args = cli.parse(parser, argv)
 
     import yaml
 
     descriptor = yaml.safe_load(Path(args.io).read_text())
     if descriptor.get("version") != IO_DESCRIPTOR_VERSION:
-        raise SystemExit(f"error: {args.io} is an IO descriptor of version {descriptor.get('version')}, this script "
-                         f"reads version {IO_DESCRIPTOR_VERSION}: export the policy again with scripts/export.py")
+        cli.fail(f"{args.io} is an IO descriptor of version {descriptor.get('version')}, this script reads version "
+                 f"{IO_DESCRIPTOR_VERSION}: export the policy again with scripts/export.py")
     mjcf = args.mjcf or default_mjcf(descriptor)
     video = MujocoVideo(args.video, mjcf, round(1.0 / descriptor["control_dt_s"])) if args.video else None
     try:

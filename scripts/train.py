@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import math
 import os
-import sys
 
 from utils import cli
 
@@ -72,14 +71,14 @@ def initial_actor_checkpoint(checkpoint: dict, path: str, log_dir: str, action_s
             actor["distribution.log_std_param"] = torch.full_like(actor["distribution.log_std_param"],
                                                                   math.log(action_std))
         else:
-            sys.exit(f"error: --init_action_std: the actor in {path} has no state-independent std to reset")
+            cli.fail(f"--init_action_std: the actor in {path} has no state-independent std to reset")
         print(f"[agile] action noise reset to std {action_std}")
     torch.save(checkpoint, os.path.join(log_dir, "init_policy.pt"))
     return checkpoint
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = cli.new_parser(__doc__)
     cli.add_common_args(parser)
     parser.add_argument("--max_iterations", type=int, default=None, help="PPO iterations (default: the task's)")
     parser.add_argument("--resume", action="store_true", help="continue from a checkpoint (--checkpoint or newest)")
@@ -98,7 +97,7 @@ def main(argv=None) -> None:
     parser.add_argument("--video_interval", type=int, default=500, help="iterations between clips")
     parser.add_argument("--video_length", type=int, default=200, help="env steps per clip")
     cli.add_checkpoint_args(parser)
-    args = parser.parse_args(argv)
+    args = cli.parse(parser, argv)
 
     env_cfg, agent_cfg, device = cli.load_task(args)
     if args.max_iterations is not None:
@@ -111,15 +110,15 @@ def main(argv=None) -> None:
     if args.resume or args.checkpoint:
         resume_path = args.checkpoint or cli.latest_checkpoint(args.log_root, agent_cfg.experiment_name)
         if not os.path.isfile(resume_path):
-            sys.exit(f"error: checkpoint not found: {resume_path}")
+            cli.fail(f"checkpoint not found: {resume_path}")
     if args.init_policy and resume_path:
-        sys.exit("error: --init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
+        cli.fail("--init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
     # read before the env is built: a file that is missing or would run code is refused at once
     resume_contents = cli.read_checkpoint(resume_path, args.trust_checkpoint) if resume_path else None
     if args.init_policy and not os.path.isfile(args.init_policy):
-        sys.exit(f"error: --init_policy file not found: {args.init_policy}")
+        cli.fail(f"--init_policy file not found: {args.init_policy}")
     if args.init_action_std is not None and (not args.init_policy or not args.init_action_std > 0):
-        sys.exit("error: --init_action_std needs --init_policy and a positive value "
+        cli.fail("--init_action_std needs --init_policy and a positive value "
                  "(a new run's initial std is agent.actor.distribution_cfg.init_std)")
     init_contents = cli.read_checkpoint(args.init_policy, args.trust_checkpoint) if args.init_policy else None
 
@@ -134,7 +133,9 @@ def main(argv=None) -> None:
     log_dir = cli.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
     cli.dump_configs(log_dir, env_cfg, agent_cfg)
     wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
-    runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
+    with cli.quiet_stdout():
+        runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
+    runner.logger.git_status_repos = cli.git_repos()
     if resume_path:
         print(f"[agile] resuming from {resume_path}")
         restore_runner(runner, resume_contents)  # loaded on the CPU: a GPU run can be resumed on another device

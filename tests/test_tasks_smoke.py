@@ -17,13 +17,26 @@ def test_every_registered_task_has_a_smoke_test_or_a_reason():
     assert not missing, f"registered tasks without a smoke test: {sorted(missing)}"
 
 
+def assert_in_space(space, value, where: str) -> None:
+    """The observation matches its space: the same groups and terms, the same shapes."""
+    if isinstance(space, gym.spaces.Dict):
+        assert set(space.spaces) == set(value.keys()), f"{where}: space {sorted(space.spaces)}, obs {sorted(value.keys())}"
+        for key, sub in space.spaces.items():
+            assert_in_space(sub, value[key], f"{where}.{key}")
+    else:
+        assert tuple(value.shape) == space.shape, f"{where}: space {space.shape}, obs {tuple(value.shape)}"
+
+
 @pytest.mark.parametrize("task", SMOKE_TASKS)
 def test_task_builds_steps_resets_and_trains(task, tmp_path):
     env = gym.make(task, num_envs=2, device="cpu").unwrapped
     obs, _ = env.reset()
+    assert_in_space(env.observation_space, obs, "obs")
     for _ in range(3):
         obs, reward, terminated, truncated, extras = env.step(torch.rand(2, env.action_manager.total_action_dim) - 0.5)
         assert torch.isfinite(reward).all()
+    assert_in_space(env.observation_space, obs, "obs")
+    assert_in_space(env.single_observation_space, obs[0], "obs[0]")
     obs, _ = env.reset()
     assert (env.episode_length_buf == 0).all()
     if "random_pos" in env.action_manager.active_terms:  # AGILE: only arms and head move randomly

@@ -151,9 +151,8 @@ class ManagerBasedRLEnv(gym.Env):
         self.event_manager.apply("startup", self._all_envs)
         self.single_action_space = gym.spaces.Box(-math.inf, math.inf, (self.action_manager.total_action_dim,))
         self.action_space = gym.vector.utils.batch_space(self.single_action_space, self.num_envs)
-        self.observation_space = gym.spaces.Dict({
-            g: gym.spaces.Box(-math.inf, math.inf, (self.num_envs, d))
-            for g, d in self.observation_manager.group_dims.items()})
+        self.single_observation_space = self.observation_manager.space()
+        self.observation_space = self.observation_manager.space(batch=self.num_envs)
         self._reset_envs(self._all_envs)
         self.obs_buf = self.observation_manager.compute()
         self.extras: dict = {}

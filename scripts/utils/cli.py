@@ -13,9 +13,69 @@ if str(REPO_ROOT) not in sys.path:  # run from a checkout without installing
     sys.path.insert(0, str(REPO_ROOT))
 
 CPU_DEFAULT_NUM_ENVS = 4
+EXIT_USAGE = 2
+"""Exit code of a script refusing its arguments (argparse's own)."""
+VERBOSE = False
+"""Set by `parse`: whether Warp's module loads, rsl-rl's model printout and library warnings are shown."""
 
-OVERRIDE_HELP = ("config overrides as path=value, e.g. env.rewards.track_lin_vel_xy_exp.weight=2.0 "
-                 "agent.algorithm.learning_rate=5e-4 env.sim.solver.iterations=20")
+OVERRIDE_HELP = ("config overrides as path=value, any field of the env or agent config: a number "
+                 "env.rewards.track_lin_vel_xy_exp.weight=2.0, a string agent.actor.activation=relu, a list "
+                 "(a quoted Python literal) 'agent.actor.hidden_dims=[128, 128]', None env.scene.terrain=null")
+
+
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """--help shows each option's default and keeps the description's line breaks."""
+
+
+def fail(message: str):
+    """One line on stderr and exit code 2: what a script says to arguments it cannot use."""
+    print(f"error: {message}", file=sys.stderr)
+    sys.exit(EXIT_USAGE)
+
+
+def new_parser(description: str) -> argparse.ArgumentParser:
+    return argparse.ArgumentParser(description=description, formatter_class=HelpFormatter)
+
+
+def parse(parser: argparse.ArgumentParser, argv=None):
+    """Parse, check the counts (before anything is built), and set how much the libraries print."""
+    global VERBOSE
+    args = parser.parse_args(argv)
+    for name in ("num_envs", "num_steps", "num_episodes", "max_iterations"):
+        values = getattr(args, name, None)
+        for value in values if isinstance(values, list) else [values]:  # benchmark.py takes several env counts
+            if value is not None and value < 1:
+                fail(f"--{name} must be at least 1, got {value}")
+    VERBOSE = bool(getattr(args, "verbose", False))
+    configure_output(VERBOSE)
+    return args
+
+
+def configure_output(verbose: bool) -> None:
+    """Quiet by default: Warp's per-module load lines and the deprecation and future warnings of the
+    libraries underneath are for whoever debugs them (`--verbose`)."""
+    import warnings
+
+    import warp as wp
+
+    wp.config.log_level = wp.LOG_INFO if verbose else wp.LOG_WARNING
+    if not verbose:
+        for category in (FutureWarning, DeprecationWarning):
+            warnings.filterwarnings("ignore", category=category)
+
+
+def quiet_stdout():
+    """A context that swallows what a library prints (rsl-rl prints its whole actor and critic) unless --verbose."""
+    import contextlib
+    import io
+
+    return contextlib.nullcontext() if VERBOSE else contextlib.redirect_stdout(io.StringIO())
+
+
+def git_repos() -> list[str]:
+    """The repositories whose state rsl-rl stores with a run: this checkout, when it is one (rsl-rl's default,
+    its own installed package, is not a repository and only prints that it is not)."""
+    return [str(REPO_ROOT)] if (REPO_ROOT / ".git").exists() else []
 
 
 def add_common_args(parser: argparse.ArgumentParser) -> None:
@@ -27,6 +87,8 @@ def add_common_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rnn", choices=("lstm", "gru"), default=None,
                         help="recurrent actor and critic (rsl-rl's RNNModel) instead of the task's MLPs, sized by "
                              "agent.actor.rnn_hidden_dim=... etc.; needed again to play, eval or export the checkpoint")
+    parser.add_argument("--verbose", action="store_true",
+                        help="show Warp's kernel loads, rsl-rl's model printout and library warnings")
     parser.add_argument("overrides", nargs="*", help=OVERRIDE_HELP)
 
 
@@ -43,17 +105,16 @@ def read_checkpoint(path: str, trust: bool) -> dict:
     from agile.rl_env.rsl_rl.checkpoints import UntrustedCheckpointError, load_checkpoint
 
     if not os.path.isfile(path):
-        sys.exit(f"error: checkpoint not found: {path}")
+        fail(f"checkpoint not found: {path}")
     try:
         return load_checkpoint(path, "cpu", trust=trust)
     except UntrustedCheckpointError as err:
-        sys.exit(f"error: {err}")
+        fail(str(err))
 
 
 def resolve_device(requested: str | None) -> str:
     import warp as wp
 
-    wp.config.quiet = True
     if requested is None:
         if wp.is_cuda_available():
             return "cuda:0"
@@ -92,7 +153,7 @@ def load_task(args) -> tuple:
     try:
         env_cfg, agent_cfg = agile.tasks.load_cfgs(args.task)
     except KeyError as err:
-        sys.exit(f"error: {err.args[0]}")
+        fail(err.args[0])
     device = resolve_device(args.device)
     if args.num_envs is not None:
         env_cfg.num_envs = args.num_envs
@@ -107,7 +168,7 @@ def load_task(args) -> tuple:
     try:
         apply_overrides({"env": env_cfg, "agent": agent_cfg}, args.overrides)
     except ConfigError as err:
-        sys.exit(f"error: {err}")
+        fail(str(err))
     return env_cfg, agent_cfg, device
 
 
@@ -115,10 +176,12 @@ def make_env(task: str, env_cfg, device: str):
     from agile.rl_env import ManagerBasedRLEnv
     from agile.utils.config import ConfigError
 
+    print(f"[agile] building {task}: {env_cfg.num_envs} envs on {device} (the first run on a machine compiles "
+          f"the Warp kernels, a minute or two)", flush=True)
     try:
         return ManagerBasedRLEnv(env_cfg, task_name=task, device=device)
     except ConfigError as err:
-        sys.exit(f"error: {err}")
+        fail(str(err))
 
 
 def new_log_dir(log_root: str, experiment: str, run_name: str) -> str:
@@ -134,7 +197,7 @@ def latest_checkpoint(log_root: str, experiment: str) -> str:
     exp_dir = Path(log_root) / experiment
     runs = sorted((p for p in exp_dir.glob("*") if p.is_dir() and list(p.glob("model_*.pt"))), key=lambda p: p.name)
     if not runs:
-        sys.exit(f"error: no checkpoint found under {exp_dir}")
+        fail(f"no checkpoint found under {exp_dir}")
     models = sorted(runs[-1].glob("model_*.pt"), key=lambda p: int(p.stem.split("_")[1]))
     return str(models[-1])
 

@@ -25,8 +25,11 @@ def load_runner(checkpoint: dict, env, agent_cfg):
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
     from agile.rl_env.rsl_rl.checkpoints import restore_runner
 
+    from utils import cli
+
     wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
-    runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
+    with cli.quiet_stdout():  # rsl-rl prints the whole actor and critic
+        runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
     # a shipped policy holds the actor only; a training checkpoint also the critic and optimizer
     actor_only = "optimizer_state_dict" not in checkpoint
     restore_runner(runner, checkpoint, load_cfg={"actor": True} if actor_only else None)

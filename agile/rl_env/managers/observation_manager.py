@@ -55,6 +55,21 @@ class ObservationManager:
     def group_dims(self) -> dict[str, int]:
         return {g: sum(d.values()) for g, d in self.term_dims.items()}
 
+    def space(self, batch: int | None = None):
+        """The gymnasium space of what `compute()` returns: a Dict of groups, each a Box (concatenated group)
+        or a Dict of its terms' Boxes; with `batch`, every Box has that leading dimension (the envs)."""
+        import math
+
+        import gymnasium as gym
+
+        def box(dim: int):
+            return gym.spaces.Box(-math.inf, math.inf, (dim,) if batch is None else (batch, dim))
+
+        return gym.spaces.Dict({
+            g: box(sum(dims.values())) if self.group_cfgs[g].concatenate_terms
+            else gym.spaces.Dict({t: box(d) for t, d in dims.items()})
+            for g, dims in self.term_dims.items()})
+
     def compute_group(self, group_name: str) -> torch.Tensor | TensorDict:
         group = self.group_cfgs[group_name]
         values = {}
