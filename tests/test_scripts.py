@@ -16,6 +16,17 @@ def run(*args, timeout=600):
     return result.returncode, result.stdout + result.stderr
 
 
+def run_split(*args, timeout=600):
+    """(exit code, stdout, stderr)."""
+    result = subprocess.run([sys.executable, *args], cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+    return result.returncode, result.stdout, result.stderr
+
+
+NOISE = ("load on device", "Actor Model", "Critic Model", "Could not find git repository", "FutureWarning",
+         "DeprecationWarning", "Traceback")
+"""What a newcomer's run must not print unless --verbose."""
+
+
 @pytest.fixture(scope="module")
 def trained_run(tmp_path_factory):
     """A 2-iteration T1 training run on CPU: (its log folder, the train command line)."""
@@ -31,6 +42,37 @@ def test_help_of_every_script():
     for script in ("train.py", "play.py", "eval.py", "benchmark.py", "export.py"):
         code, out = run(f"scripts/{script}", "--help")
         assert code == 0 and "--task" in out, out
+        assert "(default: " in out, f"{script} --help shows no defaults"
+        if script != "benchmark.py":  # the override syntax, with an example of each kind
+            assert "weight=2.0" in out and "activation=relu" in out and "hidden_dims=[128, 128]" in out \
+                and "terrain=null" in out, out
+
+
+def test_a_quiet_run_prints_no_library_noise(trained_run):
+    run_dir, args = trained_run
+    code, out = run(*args[:-1], "--resume", "agent.num_steps_per_env=4")
+    assert code == 0, out
+    assert not [n for n in NOISE if n in out], out
+    assert "[agile] building Velocity-T1-v0" in out  # a word of progress before the long first build
+    code, out = run("scripts/play.py", "--task", "Velocity-T1-v0", "--num_envs", "1", "--num_steps", "2",
+                    "--device", "cpu", "--verbose")
+    assert code == 0 and "load on device" in out, out  # --verbose shows Warp's module loads again
+
+
+@pytest.mark.parametrize("argv", [
+    ("scripts/play.py", "--checkpoint", "missing.pt"),
+    ("scripts/eval.py", "--checkpoint", "missing.pt"),
+    ("scripts/export.py", "--checkpoint", "missing.pt", "--out", "exported"),
+    ("scripts/train.py", "--checkpoint", "missing.pt"),
+    ("scripts/play.py", "--num_envs", "0"),
+    ("scripts/train.py", "--max_iterations", "0"),
+    ("scripts/eval.py", "--num_episodes", "-1"),
+])
+def test_a_bad_path_or_count_is_one_line_and_exit_code_2_before_the_env_is_built(argv):
+    code, out, err = run_split(*argv, "--task", "Velocity-T1-v0", "--device", "cpu", timeout=120)
+    assert code == 2, (out, err)
+    assert len(err.strip().splitlines()) == 1 and err.startswith("error: "), err
+    assert "building" not in out, out  # refused before the env build
 
 
 def test_train_writes_checkpoint_logs_and_configs_then_resumes(trained_run):
