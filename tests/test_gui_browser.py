@@ -75,7 +75,7 @@ def test_a_slider_moves_the_robot_and_its_mirror_in_the_simulation(tmp_path, tas
         drawn = drawn_bodies(driver)
         runs = column_runs(drawn)
         assert len(runs) >= 2, f"two robots side by side expected; drawn columns {runs} of {drawn.shape[1]}"
-        save_screenshot(driver, tmp_path, f"{task.lower().removesuffix('-v0')}_gui.png")
+        save_screenshot(driver, tmp_path, task.lower().removesuffix('-v0').replace('-', '_') + '_gui.png')
     finally:
         driver.quit()
         output = play.stop()
