@@ -198,3 +198,20 @@ def test_sliders_refuse_a_term_they_cannot_drive():
             ActionSliders(viewer.server, env)
     finally:
         viewer.close()
+
+
+def test_object_sliders_start_at_the_objects_place_in_its_env():
+    from agile.tasks.debug.debug_env_cfg import CUBE_POSITION_M
+
+    env = gym.make("Debug-G1-Object-v0", device="cpu", num_envs=2).unwrapped
+    assert env.env_origins.abs().sum() > 0  # envs away from the world origin: env and world frames differ
+    viewer = BrowserViewer(env, free_port())
+    try:
+        sliders = ActionSliders(viewer.server, env)
+        (objects,) = [p for p in sliders.parts if p not in sliders.joints]
+        assert [s.value for s in objects.sliders[:3]] == pytest.approx(CUBE_POSITION_M)
+        step(env, viewer, sliders, count=2)
+        for env_pos in env.scene["object"].root_pos_env.tolist():
+            assert env_pos == pytest.approx(CUBE_POSITION_M, abs=1e-4)
+    finally:
+        viewer.close()

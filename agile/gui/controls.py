@@ -135,7 +135,7 @@ class ObjectPoseSliders:
     """Position [m] (env frame) and roll, pitch, yaw [rad] of an object posed by an ObjectPoseAction term."""
 
     def __init__(self, server, name: str, term: ObjectPoseAction):
-        self.default_pos = term.object.default_root_pose[0, :3].cpu() - term.object.env_origins[0].cpu()
+        self.default_pos = term.object.default_root_pose[0, :3].cpu()  # the default pose is env-relative
         low, high = term.low.cpu().tolist(), term.high.cpu().tolist()
         self.sliders = []
         with server.gui.add_folder(f"Object: {name} ({term.cfg.asset_name})", order=3.0):
