@@ -74,7 +74,7 @@ def main(argv=None) -> None:
     try:
         debug_task = agile.tasks.task_kind(args.task) == "debug"
     except KeyError as err:
-        cli.fail(f"{err.args[0]}")
+        cli.fail(err.args[0])
     viewer_on = (args.viewer or ("viser" if debug_task else "none")) == "viser"
     slider_actions = debug_task and viewer_on and args.checkpoint is None and not args.sinusoidal
     num_steps = args.num_steps if args.num_steps is not None else (None if viewer_on else DEFAULT_HEADLESS_STEPS)

@@ -21,7 +21,7 @@ import torch
 
 from agile.rl_env.mdp.actions import JointPositionAction, MirroredJointPositionAction, ObjectPoseAction
 from agile.rl_env.mdp.actions.object_pose_action import AXES
-from agile.rl_env.mdp.symmetry import joint_mirror
+from agile.rl_env.mdp.symmetry import joint_mirror, mirror_within
 
 LIMBS = (("leg", r"hip|knee|ankle|foot"), ("arm", r"shoulder|elbow|wrist"), ("hand", r"hand|finger|thumb|index|middle|palm"),
          ("waist", r"waist|torso|trunk"), ("head", r"head|neck"))
@@ -50,9 +50,7 @@ class JointSliders:
         self.offset = term.offset[0].cpu()
         self.scale = term.scale.cpu()
         perm, sign = joint_mirror(robot.joint_names, robot.joint_axis[0].cpu().numpy())
-        position = {j: k for k, j in enumerate(ids)}
-        self.partner = [position.get(perm[j]) for j in ids]
-        self.partner_sign = [sign[j] for j in ids]
+        self.partner, self.partner_sign = mirror_within(ids, perm, sign)
         # slider ranges: the model's limits; a joint without limits turns a half circle either way
         self.low = [v if math.isfinite(v) else -math.pi for v in limits[:, 0].tolist()]
         self.high = [v if math.isfinite(v) else math.pi for v in limits[:, 1].tolist()]

@@ -55,7 +55,7 @@ class BrowserViewer:
         self.url = f"http://{'localhost' if host == LOCAL_HOST else host}:{port}"
         self.reset_requested = False
         self.viewer.set_reset_callback(self._request_reset)
-        self._entities = [e for e in env.scene.entities.values() if not getattr(e, "body_type", "") == "fixed"]
+        self._entities = [e for e in env.scene.entities.values() if getattr(e, "body_type", None) != "fixed"]
         self._framing_since: dict[int, float] = {}
         """When each browser was (re)framed on env 0 [s, monotonic clock]."""
         self._written_target: dict[int, np.ndarray] = {}
@@ -71,22 +71,22 @@ class BrowserViewer:
     def _request_reset(self) -> None:
         self.reset_requested = True
 
-    def _env0_target(self) -> np.ndarray:
-        """Mean root position of env 0's entities (fixed objects like a table aside) [m], world frame."""
-        roots = torch.stack([e.root_pos_w[0] for e in self._entities]).detach().cpu().numpy()
-        return roots.mean(axis=0)
+    def _env0_roots(self) -> np.ndarray:
+        """(E, 3) root positions of env 0's entities (fixed objects like a table aside) [m], world frame."""
+        return torch.stack([e.root_pos_w[0] for e in self._entities]).detach().cpu().numpy()
 
-    def _framing_offset(self) -> np.ndarray:
-        """Camera position relative to env 0's entities for a view of all of them [m]."""
-        roots = torch.stack([e.root_pos_w[0] for e in self._entities]).detach().cpu().numpy()
-        spread_m = float(np.linalg.norm(roots.max(axis=0) - roots.min(axis=0)))
-        position, _ = camera_pose(roots.mean(axis=0), spread_m)
-        return position - roots.mean(axis=0)
+    @staticmethod
+    def _framing_offset(roots: np.ndarray) -> np.ndarray:
+        """Camera position relative to the entities' mean for a view of all of them [m]."""
+        target = roots.mean(axis=0)
+        position, _ = camera_pose(target, float(np.linalg.norm(roots.max(axis=0) - roots.min(axis=0))))
+        return position - target
 
     def frame_env0(self) -> None:
         """Point every browser (those connected, and the next ones) at env 0's entities."""
-        target = self._env0_target()
-        self.viewer.set_camera(tuple(target + self._framing_offset()), pitch=CAMERA_PITCH_DEG, yaw=CAMERA_YAW_DEG)
+        roots = self._env0_roots()
+        position = roots.mean(axis=0) + self._framing_offset(roots)
+        self.viewer.set_camera(tuple(position), pitch=CAMERA_PITCH_DEG, yaw=CAMERA_YAW_DEG)
         self._framing_since.clear()
 
     def _update_cameras(self) -> None:
@@ -95,12 +95,13 @@ class BrowserViewer:
 
         Cameras are written whole (position, look-at point, up) from env 0's position and an offset, never
         by adding to what a browser last reported: reports arrive a frame or two late."""
-        target = self._env0_target()
+        roots = self._env0_roots()
+        target = roots.mean(axis=0)
         now = time.monotonic()
         for client_id, client in self.server.get_clients().items():
             since = self._framing_since.setdefault(client_id, now)
             if now - since < CLIENT_SETTLE_S:
-                offset = self._framing_offset()
+                offset = self._framing_offset(roots)
             elif self.follow.value and np.abs(target - self._written_target.get(client_id, target)).max() > 1e-3:
                 offset = client.camera.position - client.camera.look_at
             else:

@@ -53,13 +53,20 @@ def joint_mirror(joint_names: list[str], joint_axes: np.ndarray) -> tuple[list[i
     return perm, sign
 
 
-def _sub_mirror(ids: list[int], perm: list[int], sign: list[float], what: str) -> tuple[list[int], list[float]]:
-    """The joint mirror restricted to the joints `ids` (positions within that selection)."""
+def mirror_within(ids: list[int], perm: list[int], sign: list[float]) -> tuple[list[int | None], list[float]]:
+    """The joint mirror restricted to the joints `ids`: each one's partner as a position within `ids` (None
+    where the partner is not among them) and its sign."""
     position = {j: k for k, j in enumerate(ids)}
-    missing = [j for j in ids if perm[j] not in position]
+    return [position.get(perm[j]) for j in ids], [sign[j] for j in ids]
+
+
+def _sub_mirror(ids: list[int], perm: list[int], sign: list[float], what: str) -> tuple[list[int], list[float]]:
+    """`mirror_within`, where every selected joint's partner must be selected too."""
+    partners, signs = mirror_within(ids, perm, sign)
+    missing = [j for j, p in zip(ids, partners) if p is None]
     if missing:
         raise ValueError(f"{what}: the mirror joints of joints {missing} are not selected too")
-    return [position[perm[j]] for j in ids], [sign[j] for j in ids]
+    return partners, signs
 
 
 class GroupMirror:

@@ -11,7 +11,7 @@ import torch
 
 from agile.rl_env.managers import ActionTerm
 from agile.rl_env.mdp.actions.joint_actions import JointPositionAction
-from agile.rl_env.mdp.symmetry import joint_mirror
+from agile.rl_env.mdp.symmetry import joint_mirror, mirror_within
 from agile.utils.config import configclass
 
 
@@ -32,18 +32,17 @@ class MirroredJointPositionAction(ActionTerm):
             raise ValueError(f"'{self.cfg.asset_name}' has joints {self.robot.joint_names}, not those of "
                              f"'{source.cfg.asset_name}' {source.robot.joint_names}")
         perm, sign = joint_mirror(source.robot.joint_names, source.robot.joint_axis[0].cpu().numpy())
-        ids = source.joint_ids.tolist()
-        position = {j: k for k, j in enumerate(ids)}
-        unpaired = [source.joint_names[k] for k, j in enumerate(ids) if perm[j] not in position]
+        partners, signs = mirror_within(source.joint_ids.tolist(), perm, sign)
+        unpaired = [name for name, p in zip(source.joint_names, partners) if p is None]
         if unpaired:
             raise ValueError(f"the mirror joints of {unpaired} are not driven by '{self.cfg.source_action_name}'")
         self.source = source
-        # mirrored target of joint j = sign[j] * the source's target of its partner perm[j]
-        self.partner_positions = torch.tensor([position[perm[j]] for j in ids], device=self.env.device)
-        self.partner_signs = torch.tensor([sign[j] for j in ids], device=self.env.device)
+        # mirrored target of joint k = signs[k] * the source's target of its partner partners[k]
+        self.partner_positions = torch.tensor(partners, device=self.env.device)
+        self.partner_signs = torch.tensor(signs, device=self.env.device)
         self.joint_ids = source.joint_ids
         self.joint_names = source.joint_names
-        self.partner_names = [source.joint_names[position[perm[j]]] for j in ids]
+        self.partner_names = [source.joint_names[p] for p in partners]
         """The source joint each mirrored joint copies, in the source term's joint order."""
 
     @property
