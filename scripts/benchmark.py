@@ -185,7 +185,8 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
 
     agent_cfg.max_iterations = train_iterations
     wrapped = RslRlVecEnvWrapper(env)
-    runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
+    with cli.quiet_stdout():
+        runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
     runner.learn(1)  # warm-up: allocations, first update
     synchronize(env.device)
     start = time.perf_counter()

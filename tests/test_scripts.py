@@ -23,7 +23,7 @@ def run_split(*args, timeout=600):
 
 
 NOISE = ("load on device", "Actor Model", "Critic Model", "Could not find git repository", "FutureWarning",
-         "DeprecationWarning", "Traceback")
+         "DeprecationWarning", "Traceback", "torchvision is not installed", "Warp CUDA warning")
 """What a newcomer's run must not print unless --verbose."""
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import sys
 from datetime import datetime
@@ -62,6 +63,35 @@ def configure_output(verbose: bool) -> None:
     if not verbose:
         for category in (FutureWarning, DeprecationWarning):
             warnings.filterwarnings("ignore", category=category)
+        # torch's ONNX exporter warns, for every export, that torchvision's operators are not registered
+        logging.getLogger("torch.onnx").setLevel(logging.ERROR)
+        init_warp_without_driver_warning()
+
+
+WARP_NO_DRIVER_MESSAGE = "Warp CUDA warning: Could not find or load the NVIDIA CUDA driver"
+
+
+def init_warp_without_driver_warning() -> None:
+    """Initialise Warp with its C library's stderr captured: on a machine without a GPU it prints that the CUDA
+    driver is missing, which the scripts say in their own words ("no GPU found"). Any other line is passed on."""
+    import tempfile
+
+    import warp as wp
+
+    sys.stderr.flush()
+    saved_fd = os.dup(2)
+    with tempfile.TemporaryFile(mode="w+b") as captured:
+        os.dup2(captured.fileno(), 2)
+        try:
+            wp.init()
+        finally:
+            os.dup2(saved_fd, 2)
+            os.close(saved_fd)
+        captured.seek(0)
+        text = captured.read().decode(errors="replace")
+    lines = [line for line in text.splitlines() if line.strip() and not line.startswith(WARP_NO_DRIVER_MESSAGE)]
+    if lines:
+        print("\n".join(lines), file=sys.stderr)
 
 
 def quiet_stdout():
