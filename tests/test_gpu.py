@@ -19,7 +19,7 @@ def test_captured_step_resets_logs_and_ramps_weights():
     for _ in range(60):
         obs, reward, terminated, truncated, extras = env.step(action)
         lengths.append(env.episode_length_buf.clone())
-    assert env._graph is not None
+    assert env._captured_step.graph is not None
     assert int(env.common_step_counter) == 60
     # episodes of 25 steps: time-outs happen and reset the counters inside the graph
     assert max(int(x.max()) for x in lengths) <= 25

@@ -9,6 +9,7 @@ import torch
 import warp as wp
 from tensordict import TensorDict
 
+from agile.rl_env.captured_step import CapturedStep
 from agile.rl_env.managers import (ActionManager, CommandManager, CurriculumManager, EventManager, ObservationManager,
                                    RewardManager, TerminationManager)
 from agile.sim import SceneCfg, SimCfg, Simulation
@@ -48,6 +49,8 @@ class EpisodeLog:
         self.index: dict[str, int] = {}
         self.values = torch.zeros(0, device=device)
         self._ids: dict[tuple, torch.Tensor] = {}
+        self.frozen = False
+        """Set once a step is captured: the graph holds `values`, so no new entry may reallocate it."""
 
     def write(self, entries: dict, hold_unless: torch.Tensor | None = None) -> None:
         """Store entries; with hold_unless, keep the old values where it is False (no episode finished)."""
@@ -56,6 +59,8 @@ class EpisodeLog:
         names = tuple(entries)
         new_names = [k for k in names if k not in self.index]
         if new_names:  # first step only, before any capture
+            if self.frozen:
+                raise RuntimeError(f"episode log entries {new_names} first written after the step was captured")
             for k in new_names:
                 self.index[k] = len(self.index)
             self.values = torch.cat((self.values, torch.zeros(len(new_names), device=self.device)))
@@ -131,11 +136,7 @@ class ManagerBasedRLEnv(gym.Env):
         self.sim_unstable = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
         self._all_envs = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
         self._log = EpisodeLog(self.device)
-        self._graph = None
-        self._capturing = False
-        self._eager_steps = 0
-        self._graph_outputs = None
-        self._action_buf = None
+        self._captured_step = CapturedStep(self.sim, self._step)
 
         # order matters: commands and actions exist before the observation terms that read them
         self.event_manager = EventManager(cfg.events, self)
@@ -182,43 +183,15 @@ class ManagerBasedRLEnv(gym.Env):
             obs, reward, terminated, time_outs = self._step(action)
         else:
             obs, reward, terminated, time_outs = self._captured_step(action)
+            self._log.frozen = self._captured_step.graph is not None
         self.obs_buf = obs
         self.extras = {"time_outs": time_outs, "log": self._log.snapshot()}
         return obs, reward, terminated, time_outs, self.extras
 
-    WARMUP_STEPS_BEFORE_CAPTURE = 3
-
-    def _captured_step(self, action: torch.Tensor):
-        """Eager steps first (lazy allocations, first-call branches), then one capture, then replays."""
-        if self._graph is None and self._eager_steps < self.WARMUP_STEPS_BEFORE_CAPTURE:
-            self._eager_steps += 1
-            return self._step(action)
-        if self._graph is None:
-            self._action_buf = action.clone()
-            # torch records on Warp's stream (Simulation made it torch's current stream), and Warp is told
-            # that this stream object is capturing, so its conditional loops become graph nodes
-            wp_stream = wp.get_stream(self.sim.wp_device)
-            stream = wp.stream_to_torch(wp_stream)
-            graph = torch.cuda.CUDAGraph()
-            with torch.cuda.graph(graph, stream=stream, capture_error_mode="thread_local"):
-                wp.capture_begin(device=self.sim.wp_device, stream=wp_stream, external=True)
-                self._capturing = True
-                try:
-                    self._graph_outputs = self._step(self._action_buf)
-                finally:
-                    self._capturing = False
-                wp.capture_end(device=self.sim.wp_device, stream=wp_stream)
-            self._graph = graph
-        else:
-            self._action_buf.copy_(action)
-        self._graph.replay()
-        obs, reward, terminated, time_outs = self._graph_outputs
-        return obs.clone(), reward.clone(), terminated.clone(), time_outs.clone()
-
-    def _step(self, action: torch.Tensor):
+    def _step(self, action: torch.Tensor, physics_graph: bool = True):
         self.action_manager.process_action(action)
         self.action_manager.apply_action()
-        self.sim.step(self.cfg.decimation, graph=not self._capturing)
+        self.sim.step(self.cfg.decimation, graph=physics_graph)
         self.episode_length_buf += 1
         self.common_step_counter += 1
         self.scene.update_after_physics()

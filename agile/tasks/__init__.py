@@ -9,6 +9,7 @@ import yaml
 
 from agile.tasks import debug  # noqa: F401  (registration side effect)
 from agile.tasks.locomotion import g1, t1  # noqa: F401  (registration side effect)
+from agile.tasks import multi_agent  # noqa: F401  (registration side effect)
 from agile.utils.config import load_entry_point
 
 
@@ -25,11 +26,12 @@ def task_spec(task: str) -> gym.envs.registration.EnvSpec:
     return gym.spec(task)
 
 
-TASK_KINDS = ("trainable", "debug")
+TASK_KINDS = ("trainable", "debug", "multi_agent")
 
 
 def task_kind(task: str) -> str:
-    """'debug' for tasks run by hand in the browser GUI (their registration says `kind`), else 'trainable'."""
+    """'debug' for tasks run by hand in the browser GUI, 'multi_agent' for worlds of several agents (a
+    `MultiAgentEnv`; their registration says `kind`), else 'trainable'."""
     return task_spec(task).kwargs.get("kind", "trainable")
 
 

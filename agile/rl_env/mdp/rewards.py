@@ -293,3 +293,13 @@ def object_body_distance_exp(env, std_m: float, body_cfg: SceneEntityCfg,
     body_pos_w = robot.body_pose_w[:, body_cfg.body_ids, :3].reshape(env.num_envs, -1, 3)[:, 0]
     distance = torch.linalg.norm(env.scene[object_cfg.name].root_pos_w - body_pos_w, dim=-1)
     return torch.exp(-distance / std_m)
+
+
+def filtered_contact(env, sensor_cfg: SceneEntityCfg, force_threshold_n: float = 1.0) -> torch.Tensor:
+    """1 where a selected body is pushed by the sensor's filter entity (e.g. the other robot) harder than the
+    threshold [N], else 0. The sensor needs a `filter_entity`."""
+    sensor = env.scene[sensor_cfg.name]
+    if sensor.force_matrix_w is None:
+        raise ValueError(f"filtered_contact: contact sensor '{sensor_cfg.name}' has no filter_entity")
+    force_n = torch.norm(sensor.force_matrix_w[:, sensor_cfg.body_ids].sum(dim=2), dim=-1)
+    return (force_n > force_threshold_n).any(dim=1).float()

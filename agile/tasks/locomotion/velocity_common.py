@@ -3,6 +3,7 @@ arguments), built once here."""
 
 from __future__ import annotations
 
+import copy
 import math
 
 from agile.rl_env import mdp
@@ -203,3 +204,19 @@ def velocity_curriculum_cfg(action_rate_final: float, action_rate_rate_final: fl
     cfg.action_rate.params["terminal_weight"] = action_rate_final
     cfg.action_rate_rate.params["terminal_weight"] = action_rate_rate_final
     return cfg
+
+
+RANDOMISATION_EVENTS = ("physics_material", "actuator_gains", "joint_friction", "joint_armature", "body_mass",
+                        "base_mass", "body_com", "base_com", "base_external_wrench", "extremities_external_wrench")
+"""The startup domain randomisation and the random wrenches of `VelocityEventsCfg` (pushes and resets stay)."""
+
+
+def without_randomisation(events: VelocityEventsCfg, reset_xy_range_m: float) -> VelocityEventsCfg:
+    """A copy of the events with no domain randomisation or random wrenches (the conditions the shipped G1 policy
+    learned in), and reset positions drawn within ±`reset_xy_range_m` of the robot's spawn point."""
+    events = copy.deepcopy(events)
+    for name in RANDOMISATION_EVENTS:
+        setattr(events, name, None)
+    pose_range = events.reset_base.params["pose_range"]
+    pose_range.update(x=(-reset_xy_range_m, reset_xy_range_m), y=(-reset_xy_range_m, reset_xy_range_m))
+    return events

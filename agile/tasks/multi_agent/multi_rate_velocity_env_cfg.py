@@ -1,0 +1,104 @@
+"""MultiRate-G1-T1-Velocity-v0: a Unitree G1 at 50 Hz and a Booster T1 at 25 Hz walk side by side in every env,
+each following its own velocity command, without touching the other.
+
+Each agent's MDP is its robot's velocity task (commands, actions, observations, rewards, terminations) term for
+term, written for "robot" and mapped onto this scene's entities by `scene_names`; added to both: a penalty for
+touching the other robot. Flat ground, no domain randomisation, arms held at their default pose (the conditions
+of the shipped G1 policy), pushes kept.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from agile.assets.booster_t1 import t1_robot_cfg
+from agile.assets.unitree_g1 import g1_robot_cfg
+from agile.marl import AgentCfg, MultiAgentEnvCfg
+from agile.rl_env import mdp
+from agile.rl_env.managers import RewTerm, SceneEntityCfg
+from agile.sim import ContactSensorCfg, HeightScannerCfg, SceneCfg
+from agile.tasks.locomotion.g1 import velocity_history_env_cfg as g1_task
+from agile.tasks.locomotion.t1 import velocity_env_cfg as t1_task
+from agile.tasks.locomotion.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, velocity_events_cfg,
+                                                   velocity_sim_cfg, velocity_terminations_cfg,
+                                                   without_randomisation)
+from agile.utils.config import configclass
+
+SPAWN_OFFSET_Y_M = 1.0
+"""Each robot spawns this far from the env origin, the G1 to the right (-y), the T1 to the left."""
+RESET_XY_RANGE_M = 0.4
+"""Reset positions within ±0.4 m of the spawn point: the robots never start inside each other."""
+TOUCH_SENSOR = "g1_touches_t1"
+
+# -- scene: both robots in every env, each with its velocity task's sensors, and a sensor of their contact
+SCENE = SceneCfg(
+    entities={
+        "g1": dataclasses.replace(g1_robot_cfg(), init_pos_m=(0.0, -SPAWN_OFFSET_Y_M, g1_robot_cfg().init_pos_m[2])),
+        "t1": dataclasses.replace(t1_robot_cfg(), init_pos_m=(0.0, SPAWN_OFFSET_Y_M, t1_robot_cfg().init_pos_m[2])),
+    },
+    terrain=None, env_spacing_m=5.0, ground_friction=1.0,
+    contact_sensors={
+        "g1_contact_forces": ContactSensorCfg(entity="g1", body_names=["pelvis", "torso_link", *g1_task.FOOT_BODIES],
+                                              history_length=3, track_air_time=True),
+        "t1_contact_forces": ContactSensorCfg(entity="t1", body_names=["Trunk", "Waist", *t1_task.FOOT_BODIES],
+                                              history_length=3, track_air_time=True),
+        TOUCH_SENSOR: ContactSensorCfg(entity="g1", filter_entity="t1", history_length=1, track_air_time=False),
+    },
+    height_scanners={"g1_base_height": HeightScannerCfg(entity="g1", body_name="pelvis"),
+                     "t1_base_height": HeightScannerCfg(entity="t1", body_name="Trunk")},
+)
+
+
+def touch_penalty() -> RewTerm:
+    """-1 per second while the two robots touch (either agent pays it)."""
+    return RewTerm(func=mdp.filtered_contact, weight=-1.0,
+                   params={"sensor_cfg": SceneEntityCfg(TOUCH_SENSOR), "force_threshold_n": 1.0})
+
+
+# -- the G1 agent: 50 Hz, Velocity-G1-History-v0's MDP
+@configclass
+class G1RewardsCfg(g1_task.RewardsCfg):
+    touch_other_robot = touch_penalty()
+
+
+def g1_agent_cfg() -> AgentCfg:
+    actions = g1_task.ActionsCfg()
+    actions.random_pos = None
+    events = velocity_events_cfg(base_body="pelvis", base_mass_add_kg=(0.0, 0.0), base_com_range_m={},
+                                 extremity_bodies=g1_task.FOOT_BODIES)
+    return AgentCfg(
+        decimation=4,
+        scene_names={"robot": "g1", CONTACT_SENSOR: "g1_contact_forces", BASE_HEIGHT_SENSOR: "g1_base_height"},
+        commands=g1_task.CommandsCfg(), actions=actions, observations=g1_task.ObservationsCfg(),
+        rewards=G1RewardsCfg(),
+        terminations=velocity_terminations_cfg(g1_task.BASE_HEIGHT_TARGET_M, trunk_bodies=["torso_link", "pelvis"]),
+        events=without_randomisation(events, RESET_XY_RANGE_M))
+
+
+# -- the T1 agent: 25 Hz, Velocity-T1-v0's MDP
+@configclass
+class T1RewardsCfg(t1_task.RewardsCfg):
+    touch_other_robot = touch_penalty()
+
+
+def t1_agent_cfg() -> AgentCfg:
+    actions = t1_task.ActionsCfg()
+    actions.random_pos = None
+    events = velocity_events_cfg(base_body="Trunk", base_mass_add_kg=(0.0, 0.0), base_com_range_m={},
+                                 extremity_bodies=t1_task.FOOT_BODIES)
+    return AgentCfg(
+        decimation=8,
+        scene_names={"robot": "t1", CONTACT_SENSOR: "t1_contact_forces", BASE_HEIGHT_SENSOR: "t1_base_height"},
+        commands=t1_task.CommandsCfg(), actions=actions, observations=t1_task.ObservationsCfg(),
+        rewards=T1RewardsCfg(),
+        terminations=velocity_terminations_cfg(t1_task.BASE_HEIGHT_TARGET_M, trunk_bodies=["Trunk", "Waist"]),
+        events=without_randomisation(events, RESET_XY_RANGE_M))
+
+
+@configclass
+class MultiRateG1T1VelocityEnvCfg(MultiAgentEnvCfg):
+    num_envs = 4096
+    episode_length_s = 20.0
+    scene = SCENE
+    sim = velocity_sim_cfg(max_contacts_per_world=256)
+    agents = {"g1": g1_agent_cfg(), "t1": t1_agent_cfg()}
