@@ -221,6 +221,11 @@ def main(argv=None) -> None:
     parser.add_argument("overrides", nargs="*", help=cli.OVERRIDE_HELP)
     args = cli.parse(parser, argv)
 
+    from utils import multi_agent, multi_agent_benchmark
+
+    if multi_agent.is_multi_agent(args.task):
+        multi_agent_benchmark.benchmark(args.task, args.num_envs, args.device, args.steps, args.overrides, args.out)
+        return
     import torch
 
     rows = []

@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from utils import cli
+from utils import cli, multi_agent
 from utils.policy import inference_cfg, load_policy
 
 
@@ -66,7 +66,8 @@ def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity"
 def main(argv=None) -> None:
     parser = cli.new_parser(__doc__)
     cli.add_common_args(parser)
-    parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (default: the shipped policy)")
+    parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (default: the shipped policy); "
+                        "for a multi-agent task its training run folder (the newest model of each group)")
     parser.add_argument("--command", type=float, nargs=3, default=None, metavar=("VX", "VY", "WZ"),
                         help="a fixed velocity command [m/s, m/s, rad/s] for every env")
     parser.add_argument("--num_episodes", type=int, default=1, help="episodes per env")
@@ -78,6 +79,9 @@ def main(argv=None) -> None:
     cli.add_checkpoint_args(parser)
     args = cli.parse(parser, argv)
 
+    if multi_agent.is_multi_agent(args.task):
+        multi_agent.eval_main(args, args.checkpoint)
+        return
     checkpoint = args.checkpoint or cli.shipped_policy(args)
     if checkpoint is None:
         cli.fail(f"no --checkpoint given and agile ships no policy for {args.task}")

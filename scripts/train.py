@@ -16,7 +16,7 @@ import argparse
 import math
 import os
 
-from utils import cli
+from utils import cli, multi_agent
 
 
 def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iterations: int) -> None:
@@ -83,9 +83,10 @@ def main(argv=None) -> None:
     parser.add_argument("--max_iterations", type=int, default=None, help="PPO iterations (default: the task's)")
     parser.add_argument("--resume", action="store_true", help="continue from a checkpoint (--checkpoint or newest)")
     parser.add_argument("--checkpoint", default=None, help="checkpoint file to resume from")
-    parser.add_argument("--init_policy", default=None,
+    parser.add_argument("--init_policy", default=None, nargs="+", metavar="PATH",
                         help="start a new run from this checkpoint's actor weights only (fresh critic, optimizer and "
-                        "iteration count), e.g. a shipped policy to fine-tune on a changed task")
+                        "iteration count), e.g. a shipped policy to fine-tune on a changed task; for a multi-agent "
+                        "task one GROUP=PATH per agent group to initialise")
     parser.add_argument("--init_action_std", type=float, default=None, metavar="STD",
                         help="with --init_policy: reset the actor's action noise to STD (in action units), e.g. to "
                         "explore again when fine-tuning a converged policy on a harder task")
@@ -99,6 +100,9 @@ def main(argv=None) -> None:
     cli.add_checkpoint_args(parser)
     args = cli.parse(parser, argv)
 
+    multi_agent_task = multi_agent.is_multi_agent(args.task)
+    if multi_agent_task:
+        multi_agent.check_train_args(args)
     env_cfg, agent_cfg, device = cli.load_task(args)
     if args.max_iterations is not None:
         agent_cfg.max_iterations = args.max_iterations
@@ -106,6 +110,13 @@ def main(argv=None) -> None:
         agent_cfg.logger = args.logger
     if args.run_name is not None:
         agent_cfg.run_name = args.run_name
+    if multi_agent_task:
+        multi_agent.train(args, env_cfg, agent_cfg, device)
+        return
+    if args.init_policy is not None:
+        if len(args.init_policy) != 1:
+            cli.fail(f"--init_policy takes one checkpoint for a single-agent task, got {args.init_policy}")
+        args.init_policy = args.init_policy[0]
     resume_path = None
     if args.resume or args.checkpoint:
         resume_path = args.checkpoint or cli.latest_checkpoint(args.log_root, agent_cfg.experiment_name)

@@ -110,6 +110,8 @@ class MultiAgentEnv(gym.Env):
         self.single_action_spaces = {n: gym.spaces.Box(-math.inf, math.inf, (a.action_manager.total_action_dim,))
                                      for n, a in self.agents.items()}
         self.single_observation_spaces = {n: a.observation_manager.space() for n, a in self.agents.items()}
+        self.mean_slot_dt_s = self.schedule.hyperperiod_steps * self.physics_dt_s / len(self.schedule.slots)
+        """Simulated time per `step`, on average over a hyperperiod (a video's frame interval)."""
         self.slot = 0
         """Index of the current slot in `schedule.slots`: whose turn it is."""
         self._captured_slots = [CapturedStep(self.sim, functools.partial(self._slot_step, i))

@@ -61,11 +61,11 @@ class CameraVideo:
         self.path = path
         self.frames = 0
 
-    def write_frame(self, state, follow_pos_m) -> None:
+    def write_frame(self, state, follow_pos_m, distance_scale: float = 1.0) -> None:
         import numpy as np
         import warp as wp
 
-        eye = np.asarray(follow_pos_m, dtype=float) + np.asarray(self.CAMERA_OFFSET_M)
+        eye = np.asarray(follow_pos_m, dtype=float) + np.asarray(self.CAMERA_OFFSET_M) * distance_scale
         target = np.asarray(follow_pos_m, dtype=float) - np.array([0.0, 0.0, 0.2])
         pose = wp.transformf(wp.vec3f(*eye), wp.quatf(*_look_at_quat_xyzw(eye, target)))
         self.transforms.assign(wp.array([pose], dtype=wp.transformf, device=self.transforms.device))
@@ -82,11 +82,20 @@ class CameraVideo:
 
 
 class VideoRecorder(CameraVideo):
-    """An mp4 of one env of a ManagerBasedRLEnv."""
+    """An mp4 of one env of a ManagerBasedRLEnv (following its policy's robot) or of a MultiAgentEnv (framing all
+    its robots: the camera follows their centre and backs off as they spread), one frame per step."""
 
     def __init__(self, path: str, env, width: int = 640, height: int = 480, env_index: int = 0):
-        super().__init__(path, env.sim.model, round(1.0 / env.step_dt), width, height, env_index)
+        multi_agent = hasattr(env, "agents")
+        step_dt = env.mean_slot_dt_s if multi_agent else env.step_dt
+        super().__init__(path, env.sim.model, round(1.0 / step_dt), width, height, env_index)
         self.env_index = env_index
+        self.robots = sorted(env.scene.articulations) if multi_agent else [env.action_manager.policy_entity_name()]
 
     def record(self, env, time_s: float | None = None) -> None:
-        self.write_frame(env.sim.state, env.scene[env.action_manager.policy_entity_name()].root_pos_w[self.env_index].detach().cpu().numpy())
+        import numpy as np
+
+        roots = np.stack([env.scene[r].root_pos_w[self.env_index].detach().cpu().numpy() for r in self.robots])
+        centre = roots.mean(axis=0)
+        spread_m = float(np.linalg.norm(roots[:, :2] - centre[:2], axis=1).max())
+        self.write_frame(env.sim.state, centre, distance_scale=1.0 + spread_m / 1.5)

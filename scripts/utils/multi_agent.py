@@ -1,0 +1,199 @@
+"""train.py and eval.py for multi-agent tasks (`kind: multi_agent`): every agent group trained by its own PPO
+in one process, checkpoints per group, evaluation per agent."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from utils import cli
+from utils.policy import inference_cfg
+
+
+def is_multi_agent(task: str) -> bool:
+    import agile.tasks
+
+    try:
+        return agile.tasks.task_kind(task) == "multi_agent"
+    except KeyError as err:
+        cli.fail(err.args[0])
+
+
+def make_world(task: str, env_cfg, device: str):
+    from agile.marl import MultiAgentEnv
+    from agile.utils.config import ConfigError
+
+    print(f"[agile] building {task}: {env_cfg.num_envs} envs on {device} (the first run on a machine compiles "
+          f"the Warp kernels, a minute or two)", flush=True)
+    try:
+        world = MultiAgentEnv(env_cfg, task_name=task, device=device)
+    except ConfigError as err:
+        cli.fail(str(err))
+    print(f"[agile] agents {list(world.agents)}; schedule (physics steps, {world.physics_dt_s * 1000:g} ms): "
+          f"{world.schedule.describe()}")
+    return world
+
+
+def group_files(specs: list[str] | None, groups, what: str) -> dict[str, str]:
+    """{group: file} from GROUP=PATH arguments, checked before anything is built."""
+    files = {}
+    for spec in specs or []:
+        group, sep, path = spec.partition("=")
+        if not sep or group not in groups:
+            cli.fail(f"{what} takes GROUP=PATH with GROUP one of {list(groups)}, got '{spec}'")
+        if not os.path.isfile(path):
+            cli.fail(f"{what} file not found: {path}")
+        files[group] = path
+    return files
+
+
+def run_checkpoints(run_dir: str, groups) -> dict[str, str]:
+    """The newest model_<it>.pt of every group in a multi-agent run folder (<run>/<group>/model_<it>.pt)."""
+    found = {}
+    for group in groups:
+        models = sorted(Path(run_dir, group).glob("model_*.pt"), key=lambda p: int(p.stem.split("_")[1]))
+        if not models:
+            cli.fail(f"no checkpoint of group '{group}' under {Path(run_dir, group)}")
+        found[group] = str(models[-1])
+    return found
+
+
+def check_train_args(args) -> None:
+    if args.video or args.resume or args.checkpoint or args.init_action_std is not None or args.rnn:
+        cli.fail("multi-agent training takes --init_policy GROUP=PATH; --video, --resume, --checkpoint, "
+                 "--init_action_std and --rnn are single-agent options")
+
+
+def train(args, env_cfg, agent_cfg, device: str) -> None:
+    from agile.marl.runner import MultiAgentRunner
+    from agile.rl_env.rsl_rl.checkpoints import restore_runner
+    from agile.utils.config import ConfigError
+
+    init_files = group_files(args.init_policy, agent_cfg.groups, "--init_policy")
+    init_contents = {g: cli.read_checkpoint(p, args.trust_checkpoint) for g, p in init_files.items()}
+    world = make_world(args.task, env_cfg, device)
+    log_dir = cli.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
+    cli.dump_configs(log_dir, env_cfg, agent_cfg)
+    try:
+        with cli.quiet_stdout():
+            runner = MultiAgentRunner(world, agent_cfg, log_dir, str(world.device))
+    except ConfigError as err:
+        cli.fail(str(err))
+    for group, contents in init_contents.items():
+        print(f"[agile] group '{group}': actor initialised from {init_files[group]}")
+        restore_runner(runner.runners[group], contents, load_cfg={"actor": True})
+    for group_runner in runner.runners.values():
+        group_runner.logger.git_status_repos = cli.git_repos()
+    runner.learn(agent_cfg.max_iterations)
+    export_groups(runner, os.path.join(log_dir, "exported"))
+    print(f"[agile] logs, checkpoints and exports of each group in {log_dir}/<group>")
+
+
+def export_groups(runner, out_dir: str) -> None:
+    """policy.pt and policy.onnx of every group; with the IO descriptor of its (first) agent's robot, except for a
+    joint group, whose policy drives several robots."""
+    from agile.rl_env.rsl_rl.exporter import export_policy, io_descriptor, write_io_descriptor
+
+    for group, view in runner.views.items():
+        group_dir = os.path.join(out_dir, group)
+        export_policy(runner.runners[group], group_dir)
+        if view.mode != "joint":
+            write_io_descriptor(os.path.join(group_dir, "io_descriptor.yaml"),
+                                io_descriptor(view.env, runner.cfg.groups[group].runner))
+
+
+def evaluation_cfg(env_cfg, pushes: bool):
+    """Every agent's observations without noise, no curricula, and (unless `pushes`) no interval events."""
+    from agile.rl_env.managers import EventTerm
+
+    env_cfg.curriculum = None
+    for agent_cfg in env_cfg.agents.values():
+        inference_cfg(agent_cfg)
+        for events in (agent_cfg.events, env_cfg.events):
+            if events is None or pushes:
+                continue
+            for name, term in vars(events).items():
+                if isinstance(term, EventTerm) and term.mode == "interval":
+                    setattr(events, name, None)
+    return env_cfg
+
+
+def evaluate(world, policies: dict, num_episodes: int, recorders=(), command_name: str = "base_velocity") -> dict:
+    """Per agent: episodes, falls (its termination fired), velocity tracking error while alive, reward terms.
+    `policies[group]` maps the group's observations to its actions; every env runs `num_episodes` episodes."""
+    import torch
+
+    views = policies.keys()
+    world.reset()
+    stats = {name: {"falls": torch.zeros((), device=world.device), "lin": torch.zeros((), device=world.device),
+                    "ang": torch.zeros((), device=world.device), "alive_steps": torch.zeros((), device=world.device),
+                    "steps": 0, "terms": {t: torch.zeros((), device=world.device) for t in a.reward_manager.weights}}
+             for name, a in world.agents.items()}
+    slots = num_episodes * world.max_episode_physics_steps // world.schedule.hyperperiod_steps * \
+        len(world.schedule.slots)
+    with torch.inference_mode():
+        for slot in range(slots):
+            acting = set(world.acting_agents)
+            commands = {n: world.agents[n].command_manager.get_command(command_name).clone() for n in acting}
+            actions = {}
+            for view in views:
+                if view.agent_names[0] in acting:
+                    actions.update(view.split_actions(policies[view](view.get_observations())))
+            steps = world.step(actions)
+            for recorder in recorders:
+                recorder.record(world)
+            for name, step in steps.items():
+                agent, s = world.agents[name], stats[name]
+                robot = agent.scene["robot"]
+                playing = step.alive & ~(step.terminated | step.truncated)  # a reset env shows its next episode
+                command = commands[name]
+                s["lin"] += (torch.linalg.norm(command[:, :2] - robot.root_lin_vel_b[:, :2], dim=1) * playing).sum()
+                s["ang"] += ((command[:, 2] - robot.root_ang_vel_b[:, 2]).abs() * playing).sum()
+                s["alive_steps"] += playing.sum()
+                s["falls"] += (step.terminated & step.alive).sum()
+                s["steps"] += 1
+                for t in s["terms"]:
+                    s["terms"][t] += (agent.reward_manager.step_reward[t] * step.alive).sum()
+    episodes = num_episodes * world.num_envs
+    result = {}
+    for name, s in stats.items():
+        alive_steps = max(float(s["alive_steps"]), 1.0)
+        result[name] = {
+            "control_hz": round(1.0 / world.agents[name].step_dt, 3), "episodes": episodes,
+            "falls": int(s["falls"]), "fall_rate": float(s["falls"]) / episodes,
+            "lin_vel_error_mps": float(s["lin"]) / alive_steps, "ang_vel_error_radps": float(s["ang"]) / alive_steps,
+            "reward_per_step": {t: float(v) / (world.num_envs * s["steps"]) for t, v in s["terms"].items()}}
+    return result
+
+
+def eval_main(args, checkpoint: str | None) -> None:
+    """eval.py for a multi-agent task: --checkpoint is a training run folder (the newest model of each group)."""
+    from agile.marl.runner import MultiAgentRunner
+    from agile.rl_env.rsl_rl.checkpoints import restore_runner
+    from utils.recording import VideoRecorder
+
+    if checkpoint is None or not os.path.isdir(checkpoint):
+        cli.fail(f"--checkpoint of a multi-agent task is a training run folder (<run>/<group>/model_<it>.pt), "
+                 f"got {checkpoint}")
+    env_cfg, agent_cfg, device = cli.load_task(args)
+    files = run_checkpoints(checkpoint, agent_cfg.groups)
+    contents = {g: cli.read_checkpoint(p, args.trust_checkpoint) for g, p in files.items()}
+    env_cfg.episode_length_s = args.episode_length_s
+    world = make_world(args.task, evaluation_cfg(env_cfg, args.pushes), device)
+    with cli.quiet_stdout():
+        runner = MultiAgentRunner(world, agent_cfg, None, str(world.device))
+    policies = {}
+    for group, view in runner.views.items():
+        restore_runner(runner.runners[group], contents[group])
+        policies[view] = runner.runners[group].get_inference_policy(device=str(world.device))
+    recorders = [VideoRecorder(args.video, world)] if args.video else []
+    metrics = evaluate(world, policies, args.num_episodes, recorders)
+    for recorder in recorders:
+        recorder.close()
+    metrics = {"agents": metrics, "task": args.task, "checkpoints": files, "device": device,
+               "num_envs": world.num_envs, "episode_length_s": world.max_episode_length_s, "pushes": args.pushes}
+    print(json.dumps(metrics, indent=2))
+    if args.out:
+        with open(args.out, "w") as f:
+            json.dump(metrics, f, indent=2)
