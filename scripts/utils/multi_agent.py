@@ -132,10 +132,11 @@ def evaluate(world, policies: dict, num_episodes: int, recorders=(), command_nam
              for name, a in world.agents.items()}
     slots = num_episodes * world.max_episode_physics_steps // world.schedule.hyperperiod_steps * \
         len(world.schedule.slots)
+    commands = {}  # each agent's command over its current period
     with torch.inference_mode():
         for slot in range(slots):
             acting = set(world.acting_agents)
-            commands = {n: world.agents[n].command_manager.get_command(command_name).clone() for n in acting}
+            commands.update({n: world.agents[n].command_manager.get_command(command_name).clone() for n in acting})
             actions = {}
             for view in views:
                 if view.agent_names[0] in acting:
