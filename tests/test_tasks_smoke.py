@@ -9,11 +9,12 @@ import agile.tasks
 from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 
 SMOKE_TASKS = ["Velocity-T1-v0", "Velocity-G1-History-v0", "Debug-G1-v0", "Debug-T1-v0", "Debug-G1-Object-v0"]
+MULTI_AGENT_SMOKE_TASKS = ["MultiRate-G1-T1-Velocity-v0"]
 SKIPPED_TASKS: dict[str, str] = {}  # task ID -> reason
 
 
 def test_every_registered_task_has_a_smoke_test_or_a_reason():
-    missing = set(agile.tasks.registered_tasks()) - set(SMOKE_TASKS) - set(SKIPPED_TASKS)
+    missing = set(agile.tasks.registered_tasks()) - set(SMOKE_TASKS) - set(MULTI_AGENT_SMOKE_TASKS) - set(SKIPPED_TASKS)
     assert not missing, f"registered tasks without a smoke test: {sorted(missing)}"
 
 
@@ -52,3 +53,28 @@ def test_task_builds_steps_resets_and_trains(task, tmp_path):
     if agent_cfg.algorithm.symmetry_cfg is not None:  # AGILE's lr-mirror, on the trainable tasks
         assert runner.alg.symmetry is not None and runner.alg.symmetry.use_data_augmentation
     env.close()
+
+
+@pytest.mark.parametrize("task", MULTI_AGENT_SMOKE_TASKS)
+def test_multi_agent_task_builds_steps_resets_and_trains(task, tmp_path):
+    from agile.marl.runner import MultiAgentRunner
+
+    world = gym.make(task, num_envs=2, device="cpu").unwrapped
+    obs, _ = world.reset()
+    for name, agent_obs in obs.items():
+        assert_in_space(world.single_observation_spaces[name], agent_obs[0], f"obs['{name}'][0]")
+    for _ in range(2 * len(world.schedule.slots)):
+        dims = {a: world.agents[a].action_manager.total_action_dim for a in world.acting_agents}
+        for name, step in world.step({a: torch.rand(2, d) - 0.5 for a, d in dims.items()}).items():
+            assert torch.isfinite(step.reward).all(), name
+    world.reset()
+    assert all((a.episode_length_buf == 0).all() for a in world.agents.values())
+
+    _, agent_cfg = agile.tasks.load_cfgs(task)
+    agent_cfg.rollout_s = world.schedule.hyperperiod_steps * world.physics_dt_s * 2
+    for group in agent_cfg.groups.values():
+        group.runner.algorithm.num_mini_batches = 2
+    runner = MultiAgentRunner(world, agent_cfg, str(tmp_path), "cpu")
+    runner.learn(1)
+    for group in agent_cfg.groups:
+        assert (tmp_path / group / "model_0.pt").is_file()

@@ -1,0 +1,176 @@
+"""The multi-agent world: its schedule, held targets between an agent's actions, soft death, PettingZoo's own API
+tests, and shared and joint training groups."""
+
+import copy
+import warnings
+
+import gymnasium as gym
+import pytest
+import torch
+
+import agile.tasks  # noqa: F401
+from agile.assets.booster_t1 import t1_robot_cfg
+from agile.marl import AgentCfg, MultiAgentEnv, MultiAgentEnvCfg, Schedule
+from agile.marl.rsl_rl import AgentGroupCfg, GroupVecEnv, MultiAgentRunnerCfg
+from agile.marl.runner import MultiAgentRunner
+from agile.rl_env.rsl_rl import flatten_groups
+from agile.sim import ContactSensorCfg, HeightScannerCfg, SceneCfg
+from agile.tasks.locomotion.t1 import velocity_env_cfg as t1_task
+from agile.tasks.locomotion.t1.agents.rsl_rl_ppo_cfg import t1_velocity_ppo_runner_cfg
+from agile.tasks.multi_agent.multi_rate_velocity_env_cfg import t1_agent_cfg
+from agile.utils.config import ConfigError
+
+TASK = "MultiRate-G1-T1-Velocity-v0"
+
+
+def test_schedule_of_50_and_25_hz_agents():
+    schedule = Schedule({"g1": 4, "t1": 8})
+    assert (schedule.tick_steps, schedule.hyperperiod_steps) == (4, 8)
+    assert [(s.physics_step, s.agents, s.ticks_to_next) for s in schedule.slots] == [(0, ("g1", "t1"), 1),
+                                                                                     (4, ("g1",), 1)]
+    assert schedule.acting_at(8) == ("g1", "t1") and schedule.acting_at(12) == ("g1",)
+
+
+def test_schedule_of_periods_without_a_common_tick():
+    # 100 Hz and 66.7 Hz at 200 Hz physics: ticks of one physics step, some ticks without any agent
+    schedule = Schedule({"a": 2, "b": 3})
+    assert (schedule.tick_steps, schedule.hyperperiod_steps) == (1, 6)
+    assert [(s.physics_step, s.agents) for s in schedule.slots] == [(0, ("a", "b")), (2, ("a",)), (3, ("b",)),
+                                                                     (4, ("a",))]
+    assert [s.ticks_to_next for s in schedule.slots] == [2, 1, 1, 2]
+    with pytest.raises(ValueError, match="agent 'b'"):
+        Schedule({"a": 2, "b": 0})
+
+
+@pytest.fixture(scope="module")
+def world():
+    world = gym.make(TASK, num_envs=2, device="cpu", seed=0).unwrapped
+    yield world
+    world.close()
+
+
+def actions_for(world, value: float = 0.0) -> dict:
+    return {a: torch.full((world.num_envs, world.agents[a].action_manager.total_action_dim), value)
+            for a in world.acting_agents}
+
+
+def test_the_25_hz_agent_holds_its_targets_for_two_50_hz_steps(world):
+    world.reset()
+    assert world.acting_agents == ("g1", "t1")
+    world.step({"g1": actions_for(world)["g1"], "t1": actions_for(world, 0.5)["t1"]})
+    t1, g1 = world.scene["t1"], world.scene["g1"]
+    t1_targets, g1_targets = t1.joint_pos_target.clone(), g1.joint_pos_target.clone()
+    assert world.acting_agents == ("g1",)  # the T1's period has not ended
+    results = world.step({"g1": actions_for(world, 0.3)["g1"]})
+    assert set(results) == {"g1", "t1"}  # both periods end here
+    torch.testing.assert_close(t1.joint_pos_target, t1_targets)  # held through the G1's second step
+    assert not torch.allclose(g1.joint_pos_target, g1_targets)
+    with pytest.raises(ValueError, match=r"acting now, \['g1', 't1'\]"):
+        world.step({"g1": actions_for(world)["g1"]})
+
+
+def test_soft_death_freezes_one_robot_while_the_other_plays_on(world):
+    world.reset()
+    g1 = world.scene["g1"]
+    upside_down = g1.root_pose_w.clone()
+    upside_down[:, 3:7] = torch.tensor([1.0, 0.0, 0.0, 0.0])  # 180° about x: bad_orientation fires
+    g1.write_root_state(upside_down, torch.zeros_like(g1.root_com_vel_w), torch.tensor([True, False]))
+    world.sim.forward()
+    world.scene.update()
+    results = world.step(actions_for(world))
+    assert results["g1"].terminated.tolist() == [True, False]
+    frozen_pose = g1.root_pose_w[0].clone()
+    for _ in range(4):
+        results = world.step(actions_for(world))
+        assert results["g1"].reward[0] == 0.0 and not results["g1"].alive[0]
+        assert float(results["g1"].obs["policy"]["projected_gravity"][0].abs().sum()) == 0.0  # masked
+        torch.testing.assert_close(g1.root_pose_w[0], frozen_pose)  # frozen where it died
+        if "t1" in results:
+            assert results["t1"].alive.all() and (results["t1"].reward != 0.0).all()  # the T1 plays on
+    assert world.agents["t1"].episode_length_buf[0] > 0  # its env did not reset
+
+
+def test_pettingzoo_parallel_and_aec_api_tests_pass():
+    from pettingzoo.test import api_test, parallel_api_test
+
+    from agile.marl.pettingzoo import ParallelView, SingleEnvAECView, SingleEnvParallelView
+
+    world = gym.make(TASK, num_envs=1, device="cpu", overrides=["episode_length_s=0.2"]).unwrapped
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        parallel_api_test(SingleEnvParallelView(world), num_cycles=30)
+    assert not caught, [str(w.message) for w in caught]
+    api_test(SingleEnvAECView(world), num_cycles=30)
+
+    view = ParallelView(world)  # batched: tensors, every agent in every step
+    obs, infos = view.reset()
+    assert infos["t1"]["acting"] and obs["t1"]["policy"].batch_size == torch.Size([1])
+    obs, rewards, terminated, truncated, infos = view.step({a: torch.zeros(1, view.action_space(a).shape[0])
+                                                            for a in view.agents})
+    assert set(rewards) == {"g1", "t1"} and infos["g1"]["acting"] and not infos["t1"]["acting"]
+
+
+def two_t1_world(num_envs: int = 2) -> MultiAgentEnv:
+    """Two T1s at 25 Hz, each with Velocity-T1-v0's MDP: a homogeneous pair for shared and joint groups."""
+    entities, sensors, heights, agents = {}, {}, {}, {}
+    for name, y_m in (("t1_a", -1.0), ("t1_b", 1.0)):
+        robot = t1_robot_cfg()
+        robot.init_pos_m = (0.0, y_m, robot.init_pos_m[2])
+        entities[name] = robot
+        sensors[f"{name}_contacts"] = ContactSensorCfg(entity=name, body_names=["Trunk", "Waist",
+                                                                                *t1_task.FOOT_BODIES])
+        heights[f"{name}_height"] = HeightScannerCfg(entity=name, body_name="Trunk")
+        agent = t1_agent_cfg()
+        agent.scene_names = {"robot": name, "contact_forces": f"{name}_contacts",
+                             "height_measurement_sensor": f"{name}_height"}
+        agent.rewards = t1_task.RewardsCfg()
+        agents[name] = agent
+    cfg = MultiAgentEnvCfg(num_envs=num_envs, episode_length_s=1.0, agents=agents,
+                           scene=SceneCfg(entities=entities, contact_sensors=sensors, height_scanners=heights,
+                                          env_spacing_m=5.0),
+                           sim=copy.deepcopy(t1_task.T1VelocityEnvCfg().sim))
+    return MultiAgentEnv(cfg, device="cpu")
+
+
+def groups_cfg(mode: str) -> MultiAgentRunnerCfg:
+    runner = t1_velocity_ppo_runner_cfg()
+    runner.algorithm.num_mini_batches = 2
+    if mode == "joint":
+        runner.algorithm.symmetry_cfg = None
+    return MultiAgentRunnerCfg(rollout_s=0.16, save_interval=1,
+                               groups={"pair": AgentGroupCfg(agents=["t1_a", "t1_b"], mode=mode, runner=runner)})
+
+
+def test_shared_batches_two_robots_through_one_policy(tmp_path):
+    world = two_t1_world()
+    runner = MultiAgentRunner(world, groups_cfg("shared"), str(tmp_path), "cpu")
+    view = runner.views["pair"]
+    assert (view.num_envs, view.num_actions) == (4, 12)  # separate samples: a row per robot and env
+    obs = view.get_observations()
+    assert obs["policy"].shape[0] == 4
+    torch.testing.assert_close(obs["policy"][:2], flatten_groups(world.agents["t1_a"].obs_buf)["policy"])
+    actions = torch.arange(4.0).unsqueeze(1).expand(4, 12)
+    split = view.split_actions(actions)
+    assert split["t1_a"][:, 0].tolist() == [0.0, 1.0] and split["t1_b"][:, 0].tolist() == [2.0, 3.0]
+    runner.learn(1)
+    assert list(runner.runners) == ["pair"]  # one policy, the same weights for both robots
+    assert runner.runners["pair"].alg.storage.observations["policy"].shape[:2] == (4, 4)  # 4 steps x 4 rows
+    assert (tmp_path / "pair" / "model_0.pt").is_file()
+
+
+def test_joint_concatenates_two_robots_and_a_bad_group_is_refused():
+    world = two_t1_world()
+    runner = MultiAgentRunner(world, groups_cfg("joint"), None, "cpu")
+    view = runner.views["pair"]
+    assert (view.num_envs, view.num_actions) == (2, 24)
+    assert view.get_observations()["policy"].shape[1] == 2 * world.agents["t1_a"].observation_manager.group_dims[
+        "policy"]
+    runner.learn(1)
+    bad = groups_cfg("shared")
+    bad.groups["pair"].agents = ["t1_a", "nobody"]
+    with pytest.raises(ConfigError, match="nobody"):
+        GroupVecEnv(world, "pair", bad.groups["pair"])
+    missing = groups_cfg("shared")
+    missing.groups["pair"].agents = ["t1_a"]
+    with pytest.raises(ConfigError, match=r"not in any: \['t1_b'\]"):
+        MultiAgentRunner(world, missing, None, "cpu")
