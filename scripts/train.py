@@ -83,10 +83,10 @@ def main(argv=None) -> None:
     parser.add_argument("--max_iterations", type=int, default=None, help="PPO iterations (default: the task's)")
     parser.add_argument("--resume", action="store_true", help="continue from a checkpoint (--checkpoint or newest)")
     parser.add_argument("--checkpoint", default=None, help="checkpoint file to resume from")
-    parser.add_argument("--init_policy", default=None, nargs="+", metavar="PATH",
+    parser.add_argument("--init_policy", default=None, action="append", metavar="PATH",
                         help="start a new run from this checkpoint's actor weights only (fresh critic, optimizer and "
                         "iteration count), e.g. a shipped policy to fine-tune on a changed task; for a multi-agent "
-                        "task one GROUP=PATH per agent group to initialise")
+                        "task GROUP=PATH, once per agent group to initialise")
     parser.add_argument("--init_action_std", type=float, default=None, metavar="STD",
                         help="with --init_policy: reset the actor's action noise to STD (in action units), e.g. to "
                         "explore again when fine-tuning a converged policy on a harder task")
