@@ -174,3 +174,29 @@ def test_joint_concatenates_two_robots_and_a_bad_group_is_refused():
     missing.groups["pair"].agents = ["t1_a"]
     with pytest.raises(ConfigError, match=r"not in any: \['t1_b'\]"):
         MultiAgentRunner(world, missing, None, "cpu")
+
+
+def test_mappo_through_skrl_has_a_centralised_critic(tmp_path):
+    import skrl
+    from skrl.trainers.torch import SequentialTrainer
+
+    from agile.marl.skrl import SkrlMultiAgentView, mappo
+
+    skrl.logger.setLevel("WARNING")  # its INFO lines at close would hit pytest's closed capture stream
+
+    world = two_t1_world()
+    view = SkrlMultiAgentView(world)
+    env, learner = mappo(view, rollouts=4, mini_batches=2, experiment_dir=str(tmp_path))
+    SequentialTrainer(env=env, agents=learner, cfg={"timesteps": 8, "headless": True,
+                                                     "disable_progressbar": True}).train()
+
+    def input_size(model):
+        return next(m for m in model.modules() if isinstance(m, torch.nn.Linear)).in_features
+
+    critic_dim = world.agents["t1_a"].observation_manager.group_dims["critic"]
+    assert input_size(learner.models["t1_a"]["value"]) == 2 * critic_dim  # both robots' critic groups
+    assert input_size(learner.models["t1_a"]["policy"]) == world.agents["t1_a"].observation_manager.group_dims[
+        "policy"]
+    assert len(learner.tracking_data["Loss / Value loss (t1_b)"]) == 2  # two updates of 4 steps
+    with pytest.raises(ConfigError, match="different steps"):
+        SkrlMultiAgentView(gym.make(TASK, num_envs=1, device="cpu").unwrapped)

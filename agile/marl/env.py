@@ -220,8 +220,7 @@ class MultiAgentEnv(gym.Env):
         was_alive = agent.alive.clone()
         terminated = (agent.termination_manager.terminated | self.sim_unstable) & was_alive
         truncated = agent.termination_manager.time_outs & was_alive & ~terminated
-        reward = agent.reward_manager.compute(agent.step_dt)
-        reward = torch.where(was_alive & ~self.sim_unstable, reward, 0.0)
+        reward = agent.reward_manager.compute(agent.step_dt, active=was_alive & ~self.sim_unstable)
         reward = torch.nan_to_num(reward, nan=0.0, posinf=0.0, neginf=0.0)
         mask = terminated.unsqueeze(-1)
         for robot_name in agent.robot_names:

@@ -85,6 +85,8 @@ class MultiAgentRunner:
                 start = time.time()
                 loss_dict = runner.alg.update()
                 runner.current_learning_iteration = it
+                if runner.logger.writer is not None:  # rsl-rl's report does not name the group
+                    print(f"[agile] group '{g}': {', '.join(self.views[g].agent_names)}")
                 runner.logger.log(it=it, start_it=start_it, total_it=total_it, collect_time=collect_time,
                                   learn_time=time.time() - start, loss_dict=loss_dict,
                                   learning_rate=runner.alg.learning_rate,

@@ -60,9 +60,23 @@ def run_checkpoints(run_dir: str, groups) -> dict[str, str]:
 
 
 def check_train_args(args) -> None:
-    if args.video or args.resume or args.checkpoint or args.init_action_std is not None or args.rnn:
-        cli.fail("multi-agent training takes --init_policy GROUP=PATH; --video, --resume, --checkpoint, "
-                 "--init_action_std and --rnn are single-agent options")
+    if args.video or args.init_action_std is not None or args.rnn:
+        cli.fail("--video, --init_action_std and --rnn are single-agent options (multi-agent training takes "
+                 "--init_policy GROUP=PATH, --resume and --checkpoint RUN_FOLDER)")
+    if args.checkpoint and not os.path.isdir(args.checkpoint):
+        cli.fail(f"--checkpoint of a multi-agent task is a training run folder (<run>/<group>/model_<it>.pt), got "
+                 f"{args.checkpoint}")
+    if (args.resume or args.checkpoint) and args.init_policy:
+        cli.fail("--init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
+
+
+def latest_run(log_root: str, experiment: str, groups) -> str:
+    """The newest run folder of an experiment that holds a checkpoint of every group."""
+    runs = sorted(p for p in Path(log_root, experiment).glob("*")
+                  if p.is_dir() and all(list((p / g).glob("model_*.pt")) for g in groups))
+    if not runs:
+        cli.fail(f"no run with a checkpoint of every group {list(groups)} under {Path(log_root, experiment)}")
+    return str(runs[-1])
 
 
 def train(args, env_cfg, agent_cfg, device: str) -> None:
@@ -72,6 +86,11 @@ def train(args, env_cfg, agent_cfg, device: str) -> None:
 
     init_files = group_files(args.init_policy, agent_cfg.groups, "--init_policy")
     init_contents = {g: cli.read_checkpoint(p, args.trust_checkpoint) for g, p in init_files.items()}
+    resume_files = {}
+    if args.resume or args.checkpoint:
+        run_dir = args.checkpoint or latest_run(args.log_root, agent_cfg.experiment_name, agent_cfg.groups)
+        resume_files = run_checkpoints(run_dir, agent_cfg.groups)
+    resume_contents = {g: cli.read_checkpoint(p, args.trust_checkpoint) for g, p in resume_files.items()}
     world = make_world(args.task, env_cfg, device)
     log_dir = cli.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
     cli.dump_configs(log_dir, env_cfg, agent_cfg)
@@ -80,6 +99,11 @@ def train(args, env_cfg, agent_cfg, device: str) -> None:
             runner = MultiAgentRunner(world, agent_cfg, log_dir, str(world.device))
     except ConfigError as err:
         cli.fail(str(err))
+    for group, contents in resume_contents.items():
+        print(f"[agile] group '{group}': resuming from {resume_files[group]}")
+        restore_runner(runner.runners[group], contents)
+    if resume_contents:  # the next iteration after the newest group's
+        runner.current_learning_iteration = max(c["iter"] for c in resume_contents.values()) + 1
     for group, contents in init_contents.items():
         print(f"[agile] group '{group}': actor initialised from {init_files[group]}")
         restore_runner(runner.runners[group], contents, load_cfg={"actor": True})

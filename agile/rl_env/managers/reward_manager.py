@@ -43,11 +43,15 @@ class RewardManager:
         else:
             self.weights[name].fill_(float(weight))
 
-    def compute(self, dt: float) -> torch.Tensor:
+    def compute(self, dt: float, active: torch.Tensor | None = None) -> torch.Tensor:
+        """Weighted terms times dt, summed; where `active` (N,) is False (a multi-agent robot frozen after its
+        death) every term counts 0, in the reward and the episode sums."""
         self.reward_buf.zero_()
         for name, weight in self.weights.items():
             cfg = self.term_cfgs[name]
             value = self.funcs[name](self.env, **cfg.params) * weight
+            if active is not None:
+                value = torch.where(active, value, 0.0)
             self.step_reward[name][:] = value
             self.reward_buf += value * dt
             self.episode_sums[name] += value * dt
