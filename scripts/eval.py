@@ -80,7 +80,7 @@ def main(argv=None) -> None:
     args = cli.parse(parser, argv)
 
     if multi_agent.is_multi_agent(args.task):
-        multi_agent.eval_main(args, args.checkpoint)
+        multi_agent.eval_main(args)
         return
     checkpoint = args.checkpoint or cli.shipped_policy(args)
     if checkpoint is None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 import os
 
-from utils import cli
+from utils import cli, multi_agent
 from utils.policy import inference_cfg, load_runner
 
 
@@ -34,6 +34,9 @@ def main(argv=None) -> None:
     parser.add_argument("--out", required=True, help="output folder")
     cli.add_checkpoint_args(parser)
     args = cli.parse(parser, argv)
+    if multi_agent.is_multi_agent(args.task):
+        multi_agent.export_main(args)
+        return
     if args.num_envs is None:
         args.num_envs = 1
     checkpoint = args.checkpoint or cli.shipped_policy(args)

@@ -17,7 +17,7 @@ import argparse
 import math
 import time
 
-from utils import cli
+from utils import cli, multi_agent
 from utils.policy import inference_cfg, load_policy
 
 from agile.gui.viewer import LOCAL_HOST
@@ -69,6 +69,9 @@ def main(argv=None) -> None:
     parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
     cli.add_checkpoint_args(parser)
     args = cli.parse(parser, argv)
+    if multi_agent.is_multi_agent(args.task):
+        multi_agent.play_main(args, args.num_steps or DEFAULT_HEADLESS_STEPS)
+        return
     import agile.tasks
 
     try:

@@ -143,9 +143,14 @@ def evaluation_cfg(env_cfg, pushes: bool):
     return env_cfg
 
 
-def evaluate(world, policies: dict, num_episodes: int, recorders=(), command_name: str = "base_velocity") -> dict:
-    """Per agent: episodes, falls (its termination fired), velocity tracking error while alive, reward terms.
-    `policies[group]` maps the group's observations to its actions; every env runs `num_episodes` episodes."""
+def episode_slots(world, num_episodes: int) -> int:
+    return num_episodes * world.max_episode_physics_steps // world.schedule.hyperperiod_steps * \
+        len(world.schedule.slots)
+
+
+def evaluate(world, policies: dict, num_slots: int, recorders=(), command_name: str = "base_velocity") -> dict:
+    """Per agent: falls (its termination fired), velocity tracking error while alive, reward terms, over
+    `num_slots` steps of the world from a reset. `policies[view]` maps a group's observations to its actions."""
     import torch
 
     views = policies.keys()
@@ -154,11 +159,9 @@ def evaluate(world, policies: dict, num_episodes: int, recorders=(), command_nam
                     "ang": torch.zeros((), device=world.device), "alive_steps": torch.zeros((), device=world.device),
                     "steps": 0, "terms": {t: torch.zeros((), device=world.device) for t in a.reward_manager.weights}}
              for name, a in world.agents.items()}
-    slots = num_episodes * world.max_episode_physics_steps // world.schedule.hyperperiod_steps * \
-        len(world.schedule.slots)
     commands = {}  # each agent's command over its current period
     with torch.inference_mode():
-        for slot in range(slots):
+        for _ in range(num_slots):
             acting = set(world.acting_agents)
             commands.update({n: world.agents[n].command_manager.get_command(command_name).clone() for n in acting})
             actions = {}
@@ -180,45 +183,88 @@ def evaluate(world, policies: dict, num_episodes: int, recorders=(), command_nam
                 s["steps"] += 1
                 for t in s["terms"]:
                     s["terms"][t] += (agent.reward_manager.step_reward[t] * step.alive).sum()
-    episodes = num_episodes * world.num_envs
     result = {}
     for name, s in stats.items():
         alive_steps = max(float(s["alive_steps"]), 1.0)
         result[name] = {
-            "control_hz": round(1.0 / world.agents[name].step_dt, 3), "episodes": episodes,
-            "falls": int(s["falls"]), "fall_rate": float(s["falls"]) / episodes,
+            "control_hz": round(1.0 / world.agents[name].step_dt, 3), "falls": int(s["falls"]),
             "lin_vel_error_mps": float(s["lin"]) / alive_steps, "ang_vel_error_radps": float(s["ang"]) / alive_steps,
             "reward_per_step": {t: float(v) / (world.num_envs * s["steps"]) for t, v in s["terms"].items()}}
     return result
 
 
-def eval_main(args, checkpoint: str | None) -> None:
-    """eval.py for a multi-agent task: --checkpoint is a training run folder (the newest model of each group)."""
+def restored_runner(world, agent_cfg, run_dir: str | None, trust: bool):
+    """A MultiAgentRunner (no logging) holding every group's newest checkpoint of a training run folder."""
     from agile.marl.runner import MultiAgentRunner
     from agile.rl_env.rsl_rl.checkpoints import restore_runner
-    from utils.recording import VideoRecorder
 
+    files = run_checkpoints(run_dir, agent_cfg.groups)
+    with cli.quiet_stdout():
+        runner = MultiAgentRunner(world, agent_cfg, None, str(world.device))
+    for group, path in files.items():
+        restore_runner(runner.runners[group], cli.read_checkpoint(path, trust))
+    return runner, files
+
+
+def check_run_folder(checkpoint: str | None) -> str:
     if checkpoint is None or not os.path.isdir(checkpoint):
         cli.fail(f"--checkpoint of a multi-agent task is a training run folder (<run>/<group>/model_<it>.pt), "
                  f"got {checkpoint}")
+    return checkpoint
+
+
+def run_main(args, episodes: int | None, num_steps: int | None) -> dict:
+    """eval.py (`episodes` per env) and play.py (`num_steps` steps of the world) for a multi-agent task."""
+    from utils.recording import VideoRecorder
+
+    run_dir = check_run_folder(args.checkpoint)
     env_cfg, agent_cfg, device = cli.load_task(args)
-    files = run_checkpoints(checkpoint, agent_cfg.groups)
-    contents = {g: cli.read_checkpoint(p, args.trust_checkpoint) for g, p in files.items()}
-    env_cfg.episode_length_s = args.episode_length_s
-    world = make_world(args.task, evaluation_cfg(env_cfg, args.pushes), device)
-    with cli.quiet_stdout():
-        runner = MultiAgentRunner(world, agent_cfg, None, str(world.device))
-    policies = {}
-    for group, view in runner.views.items():
-        restore_runner(runner.runners[group], contents[group])
-        policies[view] = runner.runners[group].get_inference_policy(device=str(world.device))
+    if getattr(args, "episode_length_s", None) is not None:
+        env_cfg.episode_length_s = args.episode_length_s
+    run_checkpoints(run_dir, agent_cfg.groups)  # a missing group is reported before the build
+    world = make_world(args.task, evaluation_cfg(env_cfg, getattr(args, "pushes", False)), device)
+    runner, files = restored_runner(world, agent_cfg, run_dir, args.trust_checkpoint)
+    policies = {view: runner.runners[g].get_inference_policy(device=str(world.device))
+                for g, view in runner.views.items()}
     recorders = [VideoRecorder(args.video, world)] if args.video else []
-    metrics = evaluate(world, policies, args.num_episodes, recorders)
+    num_slots = episode_slots(world, episodes) if episodes is not None else num_steps
+    metrics = evaluate(world, policies, num_slots, recorders)
     for recorder in recorders:
         recorder.close()
-    metrics = {"agents": metrics, "task": args.task, "checkpoints": files, "device": device,
-               "num_envs": world.num_envs, "episode_length_s": world.max_episode_length_s, "pushes": args.pushes}
+        print(f"[agile] video: {recorder.path}")
+    if episodes is not None:
+        for agent_metrics in metrics.values():
+            agent_metrics["episodes"] = episodes * world.num_envs
+            agent_metrics["fall_rate"] = agent_metrics["falls"] / (episodes * world.num_envs)
+    return {"agents": metrics, "task": args.task, "checkpoints": files, "device": device,
+            "num_envs": world.num_envs, "episode_length_s": world.max_episode_length_s}
+
+
+def eval_main(args) -> None:
+    metrics = run_main(args, args.num_episodes, None)
+    metrics["pushes"] = args.pushes
     print(json.dumps(metrics, indent=2))
     if args.out:
         with open(args.out, "w") as f:
             json.dump(metrics, f, indent=2)
+
+
+def play_main(args, num_steps: int) -> None:
+    if args.viewer == "viser" or args.usd or args.sinusoidal:
+        cli.fail("a multi-agent task plays headless with its trained groups (--checkpoint RUN_FOLDER, --video); "
+                 "--viewer, --usd and --sinusoidal are single-agent options")
+    metrics = run_main(args, None, num_steps)
+    for name, m in metrics["agents"].items():
+        print(f"[agile] {name} at {m['control_hz']:g} Hz: falls {m['falls']}, linear tracking error "
+              f"{m['lin_vel_error_mps']:.3f} m/s")
+
+
+def export_main(args) -> None:
+    """export.py for a multi-agent task: every group of a training run, into <out>/<group>/."""
+    run_dir = check_run_folder(args.checkpoint)
+    env_cfg, agent_cfg, device = cli.load_task(args)
+    world = make_world(args.task, evaluation_cfg(env_cfg, pushes=False), device)
+    runner, _ = restored_runner(world, agent_cfg, run_dir, args.trust_checkpoint)
+    export_groups(runner, args.out)
+    for group in runner.views:
+        print(f"[agile] {group}: {os.path.join(args.out, group)}")
