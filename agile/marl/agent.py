@@ -5,9 +5,7 @@ from __future__ import annotations
 import torch
 
 from agile.marl.env_cfg import AgentCfg
-from agile.rl_env.env import EpisodeLog
-from agile.rl_env.managers import (ActionManager, CommandManager, CurriculumManager, EventManager, ObservationManager,
-                                   RewardManager, TerminationManager)
+from agile.rl_env.env import EpisodeLog, build_managers
 from agile.sim import Articulation, Scene
 from agile.utils.config import ConfigError
 
@@ -73,15 +71,7 @@ class Agent:
         self.log = EpisodeLog(self.device)
         self.obs_buf = None
 
-        self.event_manager = EventManager(cfg.events, self)
-        self.command_manager = CommandManager(cfg.commands, self)
-        self.action_manager = ActionManager(cfg.actions, self)
-        self.observation_manager = ObservationManager(cfg.observations, self)
-        self.termination_manager = TerminationManager(cfg.terminations, self)
-        self.reward_manager = RewardManager(cfg.rewards, self)
-        self.curriculum_manager = CurriculumManager(cfg.curriculum, self)
-        if not self.termination_manager.active_terms:
-            raise ConfigError(f"{where}: no termination terms (at least a time_out is needed)")
+        build_managers(self, cfg)
         self.robot_names = sorted({self.scene.world_name(t.cfg.asset_name) for t in self.action_manager.terms.values()
                                    if isinstance(self.scene[t.cfg.asset_name], Articulation)})
         """World names of the articulations its action terms drive: what freezes when it dies."""

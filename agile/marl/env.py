@@ -15,10 +15,10 @@ from agile.marl.agent import Agent
 from agile.marl.env_cfg import AgentCfg, MultiAgentEnvCfg
 from agile.marl.schedule import Schedule
 from agile.rl_env.captured_step import CapturedStep
-from agile.rl_env.env import default_device
+from agile.rl_env.env import resolve_device, resolve_env_cfg
 from agile.rl_env.managers import CurriculumManager, EventManager
 from agile.sim import Simulation
-from agile.utils.config import ConfigError, apply_overrides, load_entry_point
+from agile.utils.config import ConfigError
 
 
 class AgentStep(NamedTuple):
@@ -52,16 +52,7 @@ class MultiAgentEnv(gym.Env):
     def __init__(self, cfg: MultiAgentEnvCfg | None = None, *, env_cfg_entry_point=None, task_name: str | None = None,
                  num_envs: int | None = None, device: str | None = None, seed: int | None = None,
                  overrides: list[str] | None = None, render_mode=None, **registration_kwargs):
-        if cfg is None:
-            if env_cfg_entry_point is None:
-                raise ValueError("pass an env cfg or env_cfg_entry_point")
-            cfg = load_entry_point(env_cfg_entry_point)()
-        if num_envs is not None:
-            cfg.num_envs = int(num_envs)
-        if seed is not None:
-            cfg.seed = int(seed)
-        if overrides:
-            apply_overrides({"env": cfg}, [o if o.startswith("env.") else f"env.{o}" for o in overrides])
+        cfg = resolve_env_cfg(cfg, env_cfg_entry_point, num_envs, seed, overrides)
         self.cfg = cfg
         self.task_name = task_name or type(cfg).__name__
         self.render_mode = render_mode
@@ -83,7 +74,7 @@ class MultiAgentEnv(gym.Env):
         hyperperiods = math.ceil(cfg.episode_length_s / (self.schedule.hyperperiod_steps * self.physics_dt_s) - 1e-9)
         self.max_episode_physics_steps = max(hyperperiods, 1) * self.schedule.hyperperiod_steps
         self.max_episode_length_s = self.max_episode_physics_steps * self.physics_dt_s
-        device = device or default_device()
+        device = resolve_device(device)
         try:
             self.sim = Simulation(cfg.sim, cfg.scene, cfg.num_envs, device, self.tick_dt_s)
         except ConfigError as err:

@@ -83,6 +83,43 @@ def default_device() -> str:
     return "cuda:0" if wp.is_cuda_available() else "cpu"
 
 
+def resolve_device(device: str | None) -> str:
+    device = device or default_device()
+    if device.startswith("cuda") and not wp.is_cuda_available():
+        raise RuntimeError(f"device '{device}' requested but no CUDA device is available; use device='cpu'")
+    return device
+
+
+def resolve_env_cfg(cfg, env_cfg_entry_point, num_envs: int | None, seed: int | None, overrides: list[str] | None):
+    """The env config (given, or made by the registration's entry point) with gym.make's env count, seed and
+    `path=value` overrides applied."""
+    if cfg is None:
+        if env_cfg_entry_point is None:
+            raise ValueError("pass an env cfg or env_cfg_entry_point")
+        cfg = load_entry_point(env_cfg_entry_point)()
+    if num_envs is not None:
+        cfg.num_envs = int(num_envs)
+    if seed is not None:
+        cfg.seed = int(seed)
+    if overrides:
+        apply_overrides({"env": cfg}, [o if o.startswith("env.") else f"env.{o}" for o in overrides])
+    return cfg
+
+
+def build_managers(env, cfg) -> None:
+    """The managers of an MDP as attributes of `env` (a single-agent env, or one agent of a multi-agent world),
+    built in the order their terms need: commands and actions exist before the observation terms that read them."""
+    env.event_manager = EventManager(cfg.events, env)
+    env.command_manager = CommandManager(cfg.commands, env)
+    env.action_manager = ActionManager(cfg.actions, env)
+    env.observation_manager = ObservationManager(cfg.observations, env)
+    env.termination_manager = TerminationManager(cfg.terminations, env)
+    env.reward_manager = RewardManager(cfg.rewards, env)
+    env.curriculum_manager = CurriculumManager(cfg.curriculum, env)
+    if not env.termination_manager.active_terms:
+        raise ConfigError(f"task '{env.task_name}': no termination terms (at least a time_out is needed)")
+
+
 class ManagerBasedRLEnv(gym.Env):
     """Vectorized env: every tensor has the env count as its first dimension; resets happen inside step().
 
@@ -97,22 +134,11 @@ class ManagerBasedRLEnv(gym.Env):
                  rsl_rl_cfg_entry_point=None, task_name: str | None = None, num_envs: int | None = None,
                  device: str | None = None, seed: int | None = None, overrides: list[str] | None = None,
                  render_mode=None, **extra_entry_points):
-        if cfg is None:
-            if env_cfg_entry_point is None:
-                raise ValueError("pass an env cfg or env_cfg_entry_point")
-            cfg = load_entry_point(env_cfg_entry_point)()
-        if num_envs is not None:
-            cfg.num_envs = int(num_envs)
-        if seed is not None:
-            cfg.seed = int(seed)
-        if overrides:
-            apply_overrides({"env": cfg}, [o if o.startswith("env.") else f"env.{o}" for o in overrides])
+        cfg = resolve_env_cfg(cfg, env_cfg_entry_point, num_envs, seed, overrides)
         self.cfg = cfg
         self.task_name = task_name or type(cfg).__name__
         self.render_mode = render_mode
-        device = device or default_device()
-        if device.startswith("cuda") and not wp.is_cuda_available():
-            raise RuntimeError(f"device '{device}' requested but no CUDA device is available; use device='cpu'")
+        device = resolve_device(device)
         torch.manual_seed(cfg.seed)
 
         self.num_envs = cfg.num_envs
@@ -138,16 +164,7 @@ class ManagerBasedRLEnv(gym.Env):
         self._log = EpisodeLog(self.device)
         self._captured_step = CapturedStep(self.sim, self._step)
 
-        # order matters: commands and actions exist before the observation terms that read them
-        self.event_manager = EventManager(cfg.events, self)
-        self.command_manager = CommandManager(cfg.commands, self)
-        self.action_manager = ActionManager(cfg.actions, self)
-        self.observation_manager = ObservationManager(cfg.observations, self)
-        self.termination_manager = TerminationManager(cfg.terminations, self)
-        self.reward_manager = RewardManager(cfg.rewards, self)
-        self.curriculum_manager = CurriculumManager(cfg.curriculum, self)
-        if not self.termination_manager.active_terms:
-            raise ConfigError(f"task '{self.task_name}': no termination terms (at least a time_out is needed)")
+        build_managers(self, cfg)
 
         self.event_manager.apply("startup", self._all_envs)
         self.single_action_space = gym.spaces.Box(-math.inf, math.inf, (self.action_manager.total_action_dim,))

@@ -55,6 +55,24 @@ def touch_penalty() -> RewTerm:
                    params={"sensor_cfg": SceneEntityCfg(TOUCH_SENSOR), "force_threshold_n": 1.0})
 
 
+def velocity_agent_cfg(task, entity: str, decimation: int, rewards, base_body: str,
+                       trunk_bodies: list[str]) -> AgentCfg:
+    """The velocity task `task` (its module) as an agent driving `entity` every `decimation` physics steps: its
+    commands, actions (arms at default), observations and terminations, `rewards`, and its events without
+    randomisation, on this scene's `<entity>_contact_forces` and `<entity>_base_height` sensors."""
+    actions = task.ActionsCfg()
+    actions.random_pos = None
+    events = velocity_events_cfg(base_body=base_body, base_mass_add_kg=(0.0, 0.0), base_com_range_m={},
+                                 extremity_bodies=task.FOOT_BODIES)
+    return AgentCfg(
+        decimation=decimation,
+        scene_names={"robot": entity, CONTACT_SENSOR: f"{entity}_contact_forces",
+                     BASE_HEIGHT_SENSOR: f"{entity}_base_height"},
+        commands=task.CommandsCfg(), actions=actions, observations=task.ObservationsCfg(), rewards=rewards,
+        terminations=velocity_terminations_cfg(task.BASE_HEIGHT_TARGET_M, trunk_bodies=trunk_bodies),
+        events=without_randomisation(events, RESET_XY_RANGE_M))
+
+
 # -- the G1 agent: 50 Hz, Velocity-G1-History-v0's MDP
 @configclass
 class G1RewardsCfg(g1_task.RewardsCfg):
@@ -62,17 +80,8 @@ class G1RewardsCfg(g1_task.RewardsCfg):
 
 
 def g1_agent_cfg() -> AgentCfg:
-    actions = g1_task.ActionsCfg()
-    actions.random_pos = None
-    events = velocity_events_cfg(base_body="pelvis", base_mass_add_kg=(0.0, 0.0), base_com_range_m={},
-                                 extremity_bodies=g1_task.FOOT_BODIES)
-    return AgentCfg(
-        decimation=4,
-        scene_names={"robot": "g1", CONTACT_SENSOR: "g1_contact_forces", BASE_HEIGHT_SENSOR: "g1_base_height"},
-        commands=g1_task.CommandsCfg(), actions=actions, observations=g1_task.ObservationsCfg(),
-        rewards=G1RewardsCfg(),
-        terminations=velocity_terminations_cfg(g1_task.BASE_HEIGHT_TARGET_M, trunk_bodies=["torso_link", "pelvis"]),
-        events=without_randomisation(events, RESET_XY_RANGE_M))
+    return velocity_agent_cfg(g1_task, "g1", decimation=4, rewards=G1RewardsCfg(), base_body="pelvis",
+                              trunk_bodies=["torso_link", "pelvis"])
 
 
 # -- the T1 agent: 25 Hz, Velocity-T1-v0's MDP
@@ -82,17 +91,8 @@ class T1RewardsCfg(t1_task.RewardsCfg):
 
 
 def t1_agent_cfg() -> AgentCfg:
-    actions = t1_task.ActionsCfg()
-    actions.random_pos = None
-    events = velocity_events_cfg(base_body="Trunk", base_mass_add_kg=(0.0, 0.0), base_com_range_m={},
-                                 extremity_bodies=t1_task.FOOT_BODIES)
-    return AgentCfg(
-        decimation=8,
-        scene_names={"robot": "t1", CONTACT_SENSOR: "t1_contact_forces", BASE_HEIGHT_SENSOR: "t1_base_height"},
-        commands=t1_task.CommandsCfg(), actions=actions, observations=t1_task.ObservationsCfg(),
-        rewards=T1RewardsCfg(),
-        terminations=velocity_terminations_cfg(t1_task.BASE_HEIGHT_TARGET_M, trunk_bodies=["Trunk", "Waist"]),
-        events=without_randomisation(events, RESET_XY_RANGE_M))
+    return velocity_agent_cfg(t1_task, "t1", decimation=8, rewards=T1RewardsCfg(), base_body="Trunk",
+                              trunk_bodies=["Trunk", "Waist"])
 
 
 @configclass
