@@ -80,7 +80,9 @@ def initial_actor_checkpoint(checkpoint: dict, path: str, log_dir: str, action_s
 def main(argv=None) -> None:
     parser = cli.new_parser(__doc__)
     cli.add_common_args(parser)
-    parser.add_argument("--max_iterations", type=int, default=None, help="PPO iterations (default: the task's)")
+    parser.add_argument("--max_iterations", type=int, default=None,
+                        help="PPO iterations to run (default: the task's); with --resume, iterations after the "
+                             "checkpoint's")
     parser.add_argument("--resume", action="store_true", help="continue from a checkpoint (--checkpoint or newest)")
     parser.add_argument("--checkpoint", default=None, help="checkpoint file to resume from")
     parser.add_argument("--init_policy", default=None, action="append", metavar="PATH",
@@ -133,10 +135,8 @@ def main(argv=None) -> None:
                  "(a new run's initial std is agent.actor.distribution_cfg.init_std)")
     init_contents = cli.read_checkpoint(args.init_policy, args.trust_checkpoint) if args.init_policy else None
 
-    from rsl_rl.runners import OnPolicyRunner
-
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
-    from agile.rl_env.rsl_rl.checkpoints import restore_runner
+    from agile.rl_env.rsl_rl.checkpoints import CheckpointingRunner, restore_runner
 
     env = cli.make_env(args.task, env_cfg, device)
     print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
@@ -145,11 +145,17 @@ def main(argv=None) -> None:
     cli.dump_configs(log_dir, env_cfg, agent_cfg)
     wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
     with cli.quiet_stdout():
-        runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
+        runner = CheckpointingRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
     runner.logger.git_status_repos = cli.git_repos()
     if resume_path:
         print(f"[agile] resuming from {resume_path}")
         restore_runner(runner, resume_contents)  # loaded on the CPU: a GPU run can be resumed on another device
+        env_state = (resume_contents.get("infos") or {}).get("env_state")
+        if env_state is not None:  # step counter (reward-weight ramps) and terrain levels
+            env.load_training_state(env_state)
+        else:
+            print("[agile] the checkpoint holds no env state (an older checkpoint): curricula start over")
+        print(f"[agile] continuing at iteration {runner.current_learning_iteration}")
     if args.init_policy:
         print(f"[agile] actor initialised from {args.init_policy}")
         start = initial_actor_checkpoint(init_contents, args.init_policy, log_dir, args.init_action_std)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import io
 import shutil
 import socket
+import signal
 import subprocess
 import sys
 import time
@@ -39,8 +40,11 @@ class PlayProcess:
     def __init__(self, *args: str, start_timeout_s: float = 300.0):
         self.port = free_port()
         self.url = f"http://localhost:{self.port}"
+        # Ctrl-C must reach play.py even when the tests run as a background job, whose children start with SIGINT
+        # ignored (and Python then installs no KeyboardInterrupt handler)
         self.proc = subprocess.Popen([sys.executable, "scripts/play.py", "--device", "cpu", "--port", str(self.port),
-                                      *args], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                                      *args], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                     preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
         self.output: list[str] = []
         deadline = time.monotonic() + start_timeout_s
         while time.monotonic() < deadline:
@@ -54,8 +58,6 @@ class PlayProcess:
 
     def stop(self) -> str:
         """Ctrl-C, then the rest of its output."""
-        import signal
-
         self.proc.send_signal(signal.SIGINT)
         rest, _ = self.proc.communicate(timeout=60)
         self.output.append(rest)

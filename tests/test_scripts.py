@@ -80,8 +80,18 @@ def test_train_writes_checkpoint_logs_and_configs_then_resumes(trained_run):
     assert (run_dir / "model_1.pt").is_file()
     assert (run_dir / "params" / "env.yaml").is_file() and (run_dir / "params" / "agent.yaml").is_file()
     assert list(run_dir.glob("events.out.tfevents.*"))
+    import re
+
+    import torch
+
+    env_state = torch.load(run_dir / "model_1.pt", weights_only=True)["infos"]["env_state"]
+    assert int(env_state["common_step_counter"]) == 2 * 4  # 2 iterations of 4 steps: what the weight ramps read
+    assert env_state["terrain_levels"].shape == (2,)
     code, out = run(*args[:-1], "--resume", "agent.num_steps_per_env=4")
     assert code == 0 and "resuming from" in out, out
+    resumed = int(re.search(r"resuming from \S*model_(\d+)\.pt", out).group(1))
+    assert f"continuing at iteration {resumed + 1}" in out and f"Learning iteration {resumed + 1}/" in out, out
+    assert f"Learning iteration {resumed}/" not in out  # the checkpoint's iteration is not run again
 
 
 def test_train_init_policy_starts_from_the_shipped_actor(tmp_path):

@@ -15,7 +15,7 @@ from agile.marl.agent import Agent
 from agile.marl.env_cfg import AgentCfg, MultiAgentEnvCfg
 from agile.marl.schedule import Schedule
 from agile.rl_env.captured_step import CapturedStep
-from agile.rl_env.env import resolve_device, resolve_env_cfg
+from agile.rl_env.env import check_timing, resolve_device, resolve_env_cfg
 from agile.rl_env.managers import CurriculumManager, EventManager
 from agile.sim import Simulation
 from agile.utils.config import ConfigError
@@ -57,6 +57,7 @@ class MultiAgentEnv(gym.Env):
         self.task_name = task_name or type(cfg).__name__
         self.render_mode = render_mode
         where = f"task '{self.task_name}'"
+        check_timing(cfg, self.task_name)
         if not cfg.agents:
             raise ConfigError(f"{where}: no agents (MultiAgentEnvCfg.agents is empty)")
         for name, agent_cfg in cfg.agents.items():
@@ -209,10 +210,11 @@ class MultiAgentEnv(gym.Env):
         agent.common_step_counter += 1
         agent.termination_manager.compute()
         was_alive = agent.alive.clone()
-        terminated = (agent.termination_manager.terminated | self.sim_unstable) & was_alive
+        # a non-finite action (replaced by 0 when processed) ends the agent like a termination
+        terminated = (agent.termination_manager.terminated | self.sim_unstable |
+                      agent.action_manager.invalid_action) & was_alive
         truncated = agent.termination_manager.time_outs & was_alive & ~terminated
         reward = agent.reward_manager.compute(agent.step_dt, active=was_alive & ~self.sim_unstable)
-        reward = torch.nan_to_num(reward, nan=0.0, posinf=0.0, neginf=0.0)
         mask = terminated.unsqueeze(-1)
         for robot_name in agent.robot_names:
             robot = self.scene[robot_name]
@@ -246,7 +248,8 @@ class MultiAgentEnv(gym.Env):
         for agent in self.agents.values():
             log = {"Episode/length_s": torch.where(env_mask, agent.episode_length_buf, 0).sum() / count * agent.step_dt,
                    "Episode/died": (agent.died & env_mask).sum() / count,
-                   "Episode_Termination/sim_unstable": (self.sim_unstable & env_mask).sum() / count}
+                   "Episode_Termination/sim_unstable": (self.sim_unstable & env_mask).sum() / count,
+                   "Episode_Termination/invalid_action": (agent.action_manager.invalid_action & env_mask).sum() / count}
             for manager in (agent.reward_manager, agent.termination_manager):
                 log.update(manager.reset(env_mask))
             agent.log.write(log, hold_unless=any_reset)

@@ -6,16 +6,16 @@ import os
 import time
 
 import torch
-from rsl_rl.runners import OnPolicyRunner
 
 from agile.marl.env import MultiAgentEnv
 from agile.marl.rsl_rl import GroupVecEnv, MultiAgentRunnerCfg
 from agile.rl_env.rsl_rl import to_rsl_rl_dict
+from agile.rl_env.rsl_rl.checkpoints import CheckpointingRunner
 from agile.utils.config import ConfigError
 
 
 class MultiAgentRunner:
-    """One `OnPolicyRunner` per group (its PPO, logger and checkpoints, in `<log_dir>/<group>/`); `learn` steps
+    """One rsl-rl runner per group (its PPO, logger and checkpoints, in `<log_dir>/<group>/`); `learn` steps
     the world slot by slot, each group acting and storing its transitions at its own slots, and updates every
     group after each rollout of `cfg.rollout_s` simulated seconds."""
 
@@ -37,7 +37,7 @@ class MultiAgentRunner:
                               f"({hyperperiod} physics steps = {hyperperiod * physics_dt:g} s)")
         self.slots_per_rollout = rollout_steps // hyperperiod * len(world.schedule.slots)
         self.views: dict[str, GroupVecEnv] = {}
-        self.runners: dict[str, OnPolicyRunner] = {}
+        self.runners: dict[str, CheckpointingRunner] = {}
         for name, group in cfg.groups.items():
             view = GroupVecEnv(world, name, group)
             if group.mode == "joint" and group.runner.algorithm.symmetry_cfg is not None:
@@ -46,7 +46,7 @@ class MultiAgentRunner:
             group.runner.num_steps_per_env = rollout_steps // view.env.decimation
             runner_dir = None if log_dir is None else os.path.join(log_dir, name)
             self.views[name] = view
-            self.runners[name] = OnPolicyRunner(view, to_rsl_rl_dict(group.runner), log_dir=runner_dir, device=device)
+            self.runners[name] = CheckpointingRunner(view, to_rsl_rl_dict(group.runner), log_dir=runner_dir, device=device)
         self.device = device
         self.current_learning_iteration = 0
 

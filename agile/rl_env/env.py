@@ -106,6 +106,16 @@ def resolve_env_cfg(cfg, env_cfg_entry_point, num_envs: int | None, seed: int | 
     return cfg
 
 
+def check_timing(cfg, task_name: str) -> None:
+    """The env count, episode length and physics step have a domain; a value outside it is named at once."""
+    if cfg.num_envs < 1:
+        raise ConfigError(f"task '{task_name}': num_envs must be >= 1, got {cfg.num_envs}")
+    if not cfg.episode_length_s > 0:
+        raise ConfigError(f"task '{task_name}': episode_length_s must be positive, got {cfg.episode_length_s}")
+    if not cfg.sim.physics_dt_s > 0:
+        raise ConfigError(f"task '{task_name}': sim.physics_dt_s must be positive, got {cfg.sim.physics_dt_s}")
+
+
 def build_managers(env, cfg) -> None:
     """The managers of an MDP as attributes of `env` (a single-agent env, or one agent of a multi-agent world),
     built in the order their terms need: commands and actions exist before the observation terms that read them."""
@@ -139,6 +149,10 @@ class ManagerBasedRLEnv(gym.Env):
         self.task_name = task_name or type(cfg).__name__
         self.render_mode = render_mode
         device = resolve_device(device)
+        check_timing(cfg, self.task_name)
+        if not (isinstance(cfg.decimation, int) and cfg.decimation >= 1):
+            raise ConfigError(f"task '{self.task_name}': decimation must be a whole number >= 1 (physics steps per "
+                              f"env step), got {cfg.decimation!r}")
         torch.manual_seed(cfg.seed)
 
         self.num_envs = cfg.num_envs
@@ -214,11 +228,11 @@ class ManagerBasedRLEnv(gym.Env):
         self.scene.update_after_physics()
         torch.logical_not(self.scene.state_is_valid(self.cfg.max_joint_speed_rad_s), out=self.sim_unstable)
 
-        self.reset_buf[:] = self.termination_manager.compute() | self.sim_unstable
-        terminated = self.termination_manager.terminated | self.sim_unstable
-        time_outs = self.termination_manager.time_outs & ~self.sim_unstable
-        reward = torch.where(self.sim_unstable, 0.0, self.reward_manager.compute(self.step_dt))
-        reward = torch.nan_to_num(reward, nan=0.0, posinf=0.0, neginf=0.0)
+        invalid = self.sim_unstable | self.action_manager.invalid_action
+        self.reset_buf[:] = self.termination_manager.compute() | invalid
+        terminated = self.termination_manager.terminated | invalid
+        time_outs = self.termination_manager.time_outs & ~invalid
+        reward = self.reward_manager.compute(self.step_dt, active=~self.sim_unstable)
 
         self._log.write(self.curriculum_manager.compute(self.reset_buf))
         self._reset_envs(self.reset_buf)
@@ -230,6 +244,27 @@ class ManagerBasedRLEnv(gym.Env):
     def close(self):
         pass
 
+    # -- what training depends on, saved with each checkpoint ---------------------------------------
+
+    def training_state(self) -> dict[str, torch.Tensor]:
+        """The env state a resumed training needs (CPU tensors): the step counter, which drives the reward-weight
+        ramps, and each env's terrain level. Observation histories and episodes start afresh."""
+        state = {"common_step_counter": self.common_step_counter.detach().cpu().clone()}
+        if self.sim.terrain is not None:
+            state["terrain_levels"] = self.sim.terrain_levels.detach().cpu().clone()
+        return state
+
+    def load_training_state(self, state: dict[str, torch.Tensor]) -> None:
+        """Restore `training_state()` and reset every env (robots spawn at their restored terrain levels)."""
+        self.common_step_counter.fill_(int(state["common_step_counter"]))
+        levels = state.get("terrain_levels")
+        if levels is not None and self.sim.terrain is not None:
+            if levels.shape != self.sim.terrain_levels.shape:
+                raise ValueError(f"the checkpoint holds terrain levels of {levels.shape[0]} envs, this env has "
+                                 f"{self.num_envs}")
+            self.sim.set_terrain_levels(levels.to(self.device))
+        self.reset()
+
     # -- resets ----------------------------------------------------------------------------------
 
     def _reset_envs(self, env_mask: torch.Tensor) -> None:
@@ -238,6 +273,7 @@ class ManagerBasedRLEnv(gym.Env):
         any_reset = env_mask.any()
         count = env_mask.sum().clamp(min=1)
         log["Episode_Termination/sim_unstable"] = (self.sim_unstable & env_mask).sum() / count
+        log["Episode_Termination/invalid_action"] = (self.action_manager.invalid_action & env_mask).sum() / count
         log["Episode/length_s"] = torch.where(env_mask, self.episode_length_buf, 0).sum() / count * self.step_dt
         for manager in (self.reward_manager, self.termination_manager):
             log.update(manager.reset(env_mask))

@@ -221,6 +221,8 @@ class Simulation:
         """Env i gets column i % num_cols and a row drawn in [0, max_init_level] (Isaac Lab TerrainImporter)."""
         origins = self.terrain.cell_origins_m
         num_rows, num_cols = origins.shape[:2]
+        if max_init_level is not None and max_init_level < 0:
+            raise ConfigError(f"scene.max_init_terrain_level must be >= 0 (or None: any row), got {max_init_level}")
         max_init = num_rows - 1 if max_init_level is None else min(max_init_level, num_rows - 1)
         self.terrain_origins_m = torch.from_numpy(origins).to(self.device)
         """(num_rows, num_cols, 3) spawn point of each cell."""
@@ -243,6 +245,13 @@ class Simulation:
         random_level = torch.randint_like(levels, self.max_terrain_level)
         levels = torch.where(levels >= self.max_terrain_level, random_level, levels.clamp(min=0))
         self.terrain_levels.copy_(levels)
+        self.env_origins.copy_(self.terrain_origins_m[self.terrain_levels, self.terrain_types])
+
+    def set_terrain_levels(self, levels: torch.Tensor) -> None:
+        """Put every env on the given (N,) rows (a resumed training's) and update `env_origins` in place."""
+        if self.terrain is None:
+            raise RuntimeError("terrain levels need SimCfg.terrain (this world has a flat ground plane)")
+        self.terrain_levels.copy_(levels.clamp(0, self.max_terrain_level - 1))
         self.env_origins.copy_(self.terrain_origins_m[self.terrain_levels, self.terrain_types])
 
     @contextlib.contextmanager

@@ -18,12 +18,14 @@ import hashlib
 import json
 import math
 import os
+import zipfile
+import zlib
 from dataclasses import field
 from pathlib import Path
 
 import numpy as np
 
-from agile.utils.config import configclass, to_dict
+from agile.utils.config import ConfigError, configclass, to_dict
 from agile.utils.files import warn_if_untrusted_folder
 
 CACHE_VERSION = 2
@@ -296,11 +298,32 @@ def _checksum(arrays: dict[str, np.ndarray]) -> str:
     return digest.hexdigest()
 
 
+def check_terrain_cfg(cfg: TerrainGeneratorCfg) -> None:
+    """Fields with a domain, checked before anything is generated or cached; the error names the field."""
+    problems = []
+    for name in ("num_rows", "num_cols"):
+        if getattr(cfg, name) < 1:
+            problems.append(f"{name} must be at least 1, got {getattr(cfg, name)}")
+    for name in ("size_m", "horizontal_scale_m"):
+        if not getattr(cfg, name) > 0:
+            problems.append(f"{name} must be positive, got {getattr(cfg, name)}")
+    if cfg.border_width_m < 0:
+        problems.append(f"border_width_m must be >= 0, got {cfg.border_width_m}")
+    low, high = cfg.difficulty_range
+    if not 0.0 <= low <= high <= 1.0:
+        problems.append(f"difficulty_range must be ordered within [0, 1], got {cfg.difficulty_range}")
+    if not cfg.sub_terrains or sum(t.proportion for t in cfg.sub_terrains.values()) <= 0:
+        problems.append("sub_terrains need a positive total proportion")
+    if problems:
+        raise ConfigError("scene.terrain." + "; scene.terrain.".join(problems))
+
+
 def load_or_generate_terrain(cfg: TerrainGeneratorCfg, use_cache: bool = True) -> TerrainData:
     """Generate the terrain, or load it from the cache file named by `cache_key(cfg)`.
 
     A cache file stores a checksum of its arrays; a file that does not match (truncated, edited) is
     regenerated rather than trusted."""
+    check_terrain_cfg(cfg)
     if not use_cache:
         return generate_terrain(cfg)
     path = cache_dir() / f"terrain_{cache_key(cfg)}.npz"
@@ -313,8 +336,9 @@ def load_or_generate_terrain(cfg: TerrainGeneratorCfg, use_cache: bool = True) -
             if meta["checksum"] == _checksum(arrays):
                 return TerrainData(origin_xy_m=tuple(meta["origin_xy_m"]), type_names=meta["type_names"],
                                    horizontal_scale_m=meta["horizontal_scale_m"], **arrays)
-        except (OSError, KeyError, ValueError):
-            pass  # unreadable file: regenerate and overwrite it
+            print(f"[agile] cached terrain {path} does not match its checksum: generating it again")
+        except (OSError, EOFError, KeyError, ValueError, zipfile.BadZipFile, zlib.error) as err:
+            print(f"[agile] cached terrain {path} cannot be read ({type(err).__name__}): generating it again")
     data = generate_terrain(cfg)
     arrays = {name: getattr(data, name) for name in TerrainData.ARRAYS}
     meta = {"checksum": _checksum(arrays), "origin_xy_m": list(data.origin_xy_m),

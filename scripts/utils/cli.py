@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import pickle
 import sys
 from datetime import datetime
 from pathlib import Path
@@ -223,13 +224,25 @@ def new_log_dir(log_root: str, experiment: str, run_name: str) -> str:
 
 
 def latest_checkpoint(log_root: str, experiment: str) -> str:
-    """model_<it>.pt with the highest iteration in the newest run folder of an experiment."""
+    """model_<it>.pt with the highest iteration in the newest run folder of an experiment that can be read; a newer
+    one that cannot (a write cut short by a crash) is skipped with a warning."""
+    import torch
+
     exp_dir = Path(log_root) / experiment
     runs = sorted((p for p in exp_dir.glob("*") if p.is_dir() and list(p.glob("model_*.pt"))), key=lambda p: p.name)
     if not runs:
         fail(f"no checkpoint found under {exp_dir}")
-    models = sorted(runs[-1].glob("model_*.pt"), key=lambda p: int(p.stem.split("_")[1]))
-    return str(models[-1])
+    models = sorted(runs[-1].glob("model_*.pt"), key=lambda p: int(p.stem.split("_")[1]), reverse=True)
+    for path in models:
+        try:
+            torch.load(path, map_location="cpu", weights_only=True)
+        except pickle.UnpicklingError:  # readable, but holds more than tensors: read_checkpoint says so
+            return str(path)
+        except Exception as err:  # noqa: BLE001 (any failure to read means: not this one)
+            print(f"[agile] warning: skipping {path}, it cannot be read ({type(err).__name__}: {err})")
+            continue
+        return str(path)
+    fail(f"no checkpoint under {runs[-1]} can be read")
 
 
 def dump_configs(log_dir: str, env_cfg, agent_cfg) -> None:

@@ -47,6 +47,9 @@ class ActionManager:
         self.action = torch.zeros(n, self.total_action_dim, device=env.device)
         self.prev_action = torch.zeros_like(self.action)
         self.prev_prev_action = torch.zeros_like(self.action)
+        self.invalid_action = torch.zeros(n, dtype=torch.bool, device=env.device)
+        """(N,) the last action had a non-finite entry: the env ends that step (terminated, counted as
+        `Episode_Termination/invalid_action`)."""
 
     @property
     def active_terms(self) -> list[str]:
@@ -74,7 +77,11 @@ class ActionManager:
             raise ValueError(f"action shape {tuple(action.shape)} != expected {tuple(self.action.shape)}")
         self.prev_prev_action.copy_(self.prev_action)
         self.prev_action.copy_(self.action)
-        self.action.copy_(action)
+        # the rule for a NaN or infinite entry: 0 (the term's offset, e.g. the default joint position), so that
+        # observations and rewards stay finite; the env is ended and reset by the env step
+        finite = torch.isfinite(action)
+        torch.logical_not(finite.all(dim=-1), out=self.invalid_action)
+        self.action.copy_(torch.where(finite, action, 0.0))
         start = 0
         for term in self.terms.values():
             term.process_actions(self.action[:, start:start + term.action_dim])

@@ -9,6 +9,7 @@ from tensordict import TensorDict
 
 from agile.rl_env.managers.manager_base import collect_terms, prepare_term, reset_term
 from agile.rl_env.managers.term_cfg import ObsGroup, ObsTerm
+from agile.utils.config import ConfigError
 
 
 class _TermHistory:
@@ -47,6 +48,10 @@ class ObservationManager:
             for name, term in terms.items():
                 dim = self.funcs[group_name][name](env, **term.params).shape[-1]
                 length = group.history_length if group.history_length is not None else term.history_length
+                if length < 0:
+                    where = f"observations.{group_name}" + ("" if group.history_length is not None else f".{name}")
+                    raise ConfigError(f"task '{env.task_name}': {where}.history_length must be >= 0 (0: no history), "
+                                      f"got {length}")
                 if length > 0:
                     self.histories[group_name][name] = _TermHistory(length, env.num_envs, dim, env.device)
                 self.term_dims[group_name][name] = dim * max(length, 1)

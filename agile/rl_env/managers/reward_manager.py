@@ -21,6 +21,9 @@ class RewardManager:
         self.reward_buf = torch.zeros(n, device=env.device)
         self.episode_sums = {name: torch.zeros(n, device=env.device) for name in self.term_cfgs}
         self.step_reward = {name: torch.zeros(n, device=env.device) for name in self.term_cfgs}
+        self.nonfinite_count = {name: torch.zeros((), dtype=torch.long, device=env.device) for name in self.term_cfgs}
+        """Per term, how many env-steps it returned NaN or an infinity (counted as 0 in the reward), since the
+        start: logged as `Reward_NonFinite/<term>`."""
         """Each term's weighted contribution of the last step (before dt), for debugging and GUIs."""
 
     @property
@@ -44,14 +47,18 @@ class RewardManager:
             self.weights[name].fill_(float(weight))
 
     def compute(self, dt: float, active: torch.Tensor | None = None) -> torch.Tensor:
-        """Weighted terms times dt, summed; where `active` (N,) is False (a multi-agent robot frozen after its
-        death) every term counts 0, in the reward and the episode sums."""
+        """Weighted terms times dt, summed; where `active` (N,) is False (a world that blew up, a multi-agent robot
+        frozen after its death) every term counts 0, in the reward and the episode sums. A NaN or infinite term
+        value counts 0 too, and is counted in `nonfinite_count`."""
         self.reward_buf.zero_()
         for name, weight in self.weights.items():
             cfg = self.term_cfgs[name]
             value = self.funcs[name](self.env, **cfg.params) * weight
             if active is not None:
                 value = torch.where(active, value, 0.0)
+            finite = torch.isfinite(value)
+            self.nonfinite_count[name] += (~finite).sum()
+            value = torch.where(finite, value, 0.0)
             self.step_reward[name][:] = value
             self.reward_buf += value * dt
             self.episode_sums[name] += value * dt
@@ -65,6 +72,7 @@ class RewardManager:
         for name, sums in self.episode_sums.items():
             log[f"Episode_Reward/{name}"] = torch.where(env_mask, sums, 0.0).sum() / count / max_len_s
             sums.masked_fill_(env_mask, 0.0)
+            log[f"Reward_NonFinite/{name}"] = self.nonfinite_count[name]
         for func in self.funcs.values():
             reset_term(func, env_mask)
         return log

@@ -9,10 +9,12 @@ state dicts, the optimizer's state, the iteration, `infos`) hold only tensors an
 
 from __future__ import annotations
 
+import os
 import pickle
 import re
 
 import torch
+from rsl_rl.runners import OnPolicyRunner
 
 TRUST_FLAG = "--trust_checkpoint"
 
@@ -38,6 +40,25 @@ def load_checkpoint(path: str, map_location: str | torch.device = "cpu", trust: 
 
 def restore_runner(runner, checkpoint: dict, load_cfg: dict | None = None, strict: bool = True) -> None:
     """What rsl-rl's `OnPolicyRunner.load(path)` does, from contents loaded by `load_checkpoint` (its own
-    `load` unpickles with weights_only=False)."""
+    `load` unpickles with weights_only=False); the runner continues at the iteration after the checkpoint's
+    (rsl-rl's own `load` would repeat it)."""
     if runner.alg.load(checkpoint, load_cfg, strict):
-        runner.current_learning_iteration = checkpoint["iter"]
+        runner.current_learning_iteration = checkpoint["iter"] + 1
+
+
+class CheckpointingRunner(OnPolicyRunner):
+    """rsl-rl's runner, with checkpoints written whole or not at all (a temporary file, then renamed) and holding
+    the env's training state (`infos["env_state"]`, from the env's `training_state()` where it has one)."""
+
+    def save(self, path: str, infos: dict | None = None) -> None:
+        infos = dict(infos or {})
+        env = getattr(self.env, "env", self.env)
+        if hasattr(env, "training_state"):
+            infos["env_state"] = env.training_state()
+        saved = self.alg.save()
+        saved["iter"] = self.current_learning_iteration
+        saved["infos"] = infos
+        tmp_path = f"{path}.tmp"
+        torch.save(saved, tmp_path)
+        os.replace(tmp_path, path)
+        self.logger.save_model(path, self.current_learning_iteration)

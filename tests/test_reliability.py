@@ -1,0 +1,111 @@
+"""Faults a user meets, injected: non-finite actions and reward terms, resumes, broken checkpoints and caches,
+configs outside their domain. Each test fails without the rule it checks."""
+
+import dataclasses
+
+import gymnasium as gym
+import pytest
+import torch
+
+import agile.tasks  # noqa: F401
+from agile.rl_env.rsl_rl import flatten_groups
+from agile.sim.terrain import TerrainGeneratorCfg, cache_dir, cache_key, load_or_generate_terrain
+from agile.utils.config import ConfigError
+
+FLAT = ["scene.terrain=null", "curriculum.terrain_levels=null"]
+
+
+@pytest.fixture(scope="module")
+def env():
+    env = gym.make("Velocity-T1-v0", num_envs=2, device="cpu", seed=0, overrides=FLAT).unwrapped
+    yield env
+    env.close()
+
+
+def all_finite(obs) -> bool:
+    return all(torch.isfinite(v).all() for v in flatten_groups(obs).values())
+
+
+def test_a_nan_action_is_replaced_ended_and_counted(env):
+    env.reset()
+    action = torch.zeros(2, env.action_manager.total_action_dim)
+    action[0, 3] = float("nan")
+    action[1, 5] = 0.1  # a finite action
+    obs, reward, terminated, truncated, extras = env.step(action)
+    assert terminated.tolist() == [True, False] and not truncated[0]
+    assert torch.isfinite(reward).all() and all_finite(obs)
+    assert float(extras["log"]["Episode_Termination/invalid_action"]) == 1.0  # the one env that ended
+    assert (env.episode_length_buf[0] == 0) and (env.episode_length_buf[1] == 1)  # env 0 was reset
+    for _ in range(2):  # nothing of it lingers in the action history, the rewards or the observations
+        obs, reward, terminated, _, _ = env.step(torch.zeros_like(action))
+        assert torch.isfinite(reward).all() and all_finite(obs) and not terminated.any()
+
+
+def test_a_non_finite_reward_term_counts_zero_and_is_counted_per_term():
+    def nan_in_env_0(env, **params):
+        value = torch.zeros(env.num_envs)
+        value[0] = float("nan")
+        return value
+
+    env = gym.make("Velocity-T1-v0", num_envs=2, device="cpu", overrides=FLAT).unwrapped
+    env.reward_manager.funcs["lin_vel_z"] = nan_in_env_0
+    for _ in range(3):
+        _, reward, _, _, _ = env.step(torch.zeros(2, env.action_manager.total_action_dim))
+        assert torch.isfinite(reward).all()
+    assert int(env.reward_manager.nonfinite_count["lin_vel_z"]) == 3
+    assert int(env.reward_manager.nonfinite_count["feet_slip"]) == 0
+    assert torch.isfinite(env.reward_manager.episode_sums["lin_vel_z"]).all()
+
+
+def test_training_state_round_trip_restores_the_step_counter_and_terrain_levels():
+    overrides = ["scene.terrain.num_rows=4", "scene.terrain.num_cols=2", "scene.terrain.size_m=4.0",
+                 "scene.terrain.border_width_m=1.0"]
+    first = gym.make("Velocity-T1-v0", num_envs=2, device="cpu", overrides=overrides).unwrapped
+    first.common_step_counter.fill_(123_456)
+    first.sim.update_terrain_levels(torch.tensor([True, True]), torch.tensor([False, False]))
+    state = first.training_state()
+    second = gym.make("Velocity-T1-v0", num_envs=2, device="cpu", seed=7, overrides=overrides).unwrapped
+    second.load_training_state(state)
+    assert int(second.common_step_counter) == 123_456
+    assert second.sim.terrain_levels.tolist() == first.sim.terrain_levels.tolist()
+    torch.testing.assert_close(second.env_origins, first.env_origins)
+
+
+def test_resume_skips_a_truncated_newest_checkpoint(tmp_path, capsys):
+    from utils import cli
+
+    run = tmp_path / "exp" / "2026-01-01_00-00-00"
+    run.mkdir(parents=True)
+    torch.save({"iter": 6, "actor_state_dict": {}}, run / "model_6.pt")
+    (run / "model_7.pt").write_bytes((run / "model_6.pt").read_bytes()[:40])  # a write cut short
+    assert cli.latest_checkpoint(str(tmp_path), "exp") == str(run / "model_6.pt")
+    assert "skipping" in capsys.readouterr().out
+
+
+def test_a_corrupted_terrain_cache_is_rebuilt_and_a_bad_terrain_is_never_written(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("AGILE_CACHE_DIR", str(tmp_path))
+    cfg = TerrainGeneratorCfg(size_m=2.0, num_rows=2, num_cols=2, border_width_m=0.5)
+    first = load_or_generate_terrain(cfg)
+    path = cache_dir() / f"terrain_{cache_key(cfg)}.npz"
+    for damage in (lambda b: b[: len(b) // 2], lambda b: b[:100] + bytes([b[100] ^ 0xFF]) + b[101:]):
+        good = path.read_bytes()
+        path.write_bytes(damage(good))
+        again = load_or_generate_terrain(cfg)
+        assert (again.heights_m == first.heights_m).all()
+        assert "generating it again" in capsys.readouterr().out
+    bad = dataclasses.replace(cfg, num_rows=0)
+    with pytest.raises(ConfigError, match="scene.terrain.num_rows must be at least 1, got 0"):
+        load_or_generate_terrain(bad)
+    assert not (cache_dir() / f"terrain_{cache_key(bad)}.npz").exists()
+
+
+@pytest.mark.parametrize("override, message", [
+    ("decimation=0", "decimation must be a whole number >= 1"),
+    ("sim.physics_dt_s=0.0", "sim.physics_dt_s must be positive"),
+    ("episode_length_s=-5.0", "episode_length_s must be positive"),
+    ("observations.policy.history_length=-1", "observations.policy.history_length must be >= 0"),
+    ("scene.max_init_terrain_level=-1", "scene.max_init_terrain_level must be >= 0"),
+])
+def test_a_value_outside_its_domain_is_named_at_build(override, message):
+    with pytest.raises(ConfigError, match=message):
+        gym.make("Velocity-T1-v0", num_envs=1, device="cpu", overrides=[override])
