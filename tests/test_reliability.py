@@ -105,6 +105,11 @@ def test_a_corrupted_terrain_cache_is_rebuilt_and_a_bad_terrain_is_never_written
     ("episode_length_s=-5.0", "episode_length_s must be positive"),
     ("observations.policy.history_length=-1", "observations.policy.history_length must be >= 0"),
     ("scene.max_init_terrain_level=-1", "scene.max_init_terrain_level must be >= 0"),
+    ("commands.base_velocity.ranges.lin_vel_x=(0.5, -0.5)", "'base_velocity'.*ranges.lin_vel_x must be ordered"),
+    ("commands.base_velocity.resampling_time_range_s=(-1.0, 2.0)", "resampling_time_range_s must lie within"),
+    ("commands.base_velocity.rel_standing_envs=1.5", "rel_standing_envs is a share"),
+    ("rewards.track_lin_vel_xy_exp.params.std=0.0", "'track_lin_vel_xy_exp', param 'std'.*must be positive"),
+    ("events.push_robot.interval_range_s=(5.0, 2.0)", "'push_robot'.*interval_range_s must be ordered"),
 ])
 def test_a_value_outside_its_domain_is_named_at_build(override, message):
     with pytest.raises(ConfigError, match=message):

@@ -169,3 +169,12 @@ def load_entry_point(spec: str | Callable):
     for part in attr.split("."):
         obj = getattr(obj, part)
     return obj
+
+
+def check_range(name: str, value, minimum: float | None = None, maximum: float | None = None) -> None:
+    """Raise ValueError naming `name` unless `value` is an ordered (low, high) pair within [minimum, maximum]."""
+    low, high = value
+    if not low <= high:
+        raise ValueError(f"{name} must be ordered (low <= high), got {tuple(value)}")
+    if (minimum is not None and low < minimum) or (maximum is not None and high > maximum):
+        raise ValueError(f"{name} must lie within [{minimum}, {maximum}], got {tuple(value)}")

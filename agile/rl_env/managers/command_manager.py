@@ -5,6 +5,7 @@ from __future__ import annotations
 import torch
 
 from agile.rl_env.managers.manager_base import build_class_terms
+from agile.utils.config import check_range
 
 
 class CommandTerm:
@@ -13,6 +14,7 @@ class CommandTerm:
     def __init__(self, cfg, env):
         self.cfg = cfg
         self.env = env
+        check_range("resampling_time_range_s", cfg.resampling_time_range_s, minimum=0.0)
         self.time_left_s = torch.zeros(env.num_envs, device=env.device)
 
     @property

@@ -6,7 +6,7 @@ import torch
 
 from agile.rl_env.managers.manager_base import collect_terms, prepare_term, reset_term
 from agile.rl_env.managers.term_cfg import EventTerm
-from agile.utils.config import ConfigError
+from agile.utils.config import ConfigError, check_range
 
 MODES = ("startup", "reset", "interval")
 
@@ -23,6 +23,10 @@ class EventManager:
             if term.mode == "interval":
                 if term.interval_range_s is None:
                     raise ConfigError(f"task '{env.task_name}', event term '{name}': interval mode needs interval_range_s")
+                try:
+                    check_range("interval_range_s", term.interval_range_s, minimum=0.0)
+                except ValueError as err:
+                    raise ConfigError(f"task '{env.task_name}', event term '{name}': {err}") from None
                 self.time_left_s[name] = self._sample_interval(term, env.num_envs)
             self.funcs[name] = prepare_term(env, "event", name, term, skip_first=2)
 

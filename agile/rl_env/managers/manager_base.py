@@ -37,6 +37,9 @@ def prepare_term(env, manager: str, name: str, term_cfg, skip_first: int = 1):
             if isinstance(p.default, SceneEntityCfg) and p.name not in term_cfg.params:
                 term_cfg.params[p.name] = copy.deepcopy(p.default)
     for key, value in term_cfg.params.items():
+        # a standard deviation divides: by the naming rule (`std`, `std_rad`, ...) it must be positive
+        if (key == "std" or key.startswith("std_")) and isinstance(value, (int, float)) and not value > 0:
+            raise ConfigError(f"{where}, param '{key}': a standard deviation must be positive, got {value}")
         if isinstance(value, SceneEntityCfg):
             try:
                 value.resolve(env)

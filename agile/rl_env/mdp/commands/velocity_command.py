@@ -7,7 +7,7 @@ from dataclasses import field
 import torch
 
 from agile.rl_env.managers import CommandTerm
-from agile.utils.config import configclass
+from agile.utils.config import check_range, configclass
 
 
 class UniformNullVelocityCommand(CommandTerm):
@@ -20,6 +20,10 @@ class UniformNullVelocityCommand(CommandTerm):
     def __init__(self, cfg: UniformNullVelocityCommandCfg, env):
         super().__init__(cfg, env)
         r = cfg.ranges
+        for name in ("lin_vel_x", "lin_vel_y", "ang_vel_z"):
+            check_range(f"ranges.{name}", getattr(r, name))
+        if not 0.0 <= cfg.rel_standing_envs <= 1.0:
+            raise ValueError(f"rel_standing_envs is a share of the envs, within [0, 1], got {cfg.rel_standing_envs}")
         self.low = torch.tensor([r.lin_vel_x[0], r.lin_vel_y[0], r.ang_vel_z[0]], device=env.device)
         self.high = torch.tensor([r.lin_vel_x[1], r.lin_vel_y[1], r.ang_vel_z[1]], device=env.device)
         self.vel_command_b = torch.zeros(env.num_envs, 3, device=env.device)
