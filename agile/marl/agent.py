@@ -55,7 +55,6 @@ class Agent:
         self.num_envs = world.num_envs
         self.env_origins = world.env_origins
         self.physics_dt_s = world.physics_dt_s
-        self.decimation = cfg.decimation
         self.step_dt = cfg.decimation * world.physics_dt_s
         """The agent's control period [s]."""
         self.max_episode_length_s = world.max_episode_length_s

@@ -73,7 +73,7 @@ class GroupVecEnv(VecEnv):
         self.mode = cfg.mode
         self.world = world
         self.agents = [world.agents[a] for a in cfg.agents]
-        periods = {a.name: a.decimation for a in self.agents}
+        periods = {a.name: a.cfg.decimation for a in self.agents}
         if len(set(periods.values())) != 1:
             raise ConfigError(f"{where}: its agents act at different rates (physics steps per action {periods})")
         self.action_dims = [a.action_manager.total_action_dim for a in self.agents]
@@ -92,10 +92,6 @@ class GroupVecEnv(VecEnv):
         self.device = world.device
         self.cfg = world.cfg
         self.agent_names = [a.name for a in self.agents]
-
-    @property
-    def step_dt(self) -> float:
-        return self.env.step_dt
 
     @property
     def episode_length_buf(self) -> torch.Tensor:

@@ -43,7 +43,7 @@ class MultiAgentRunner:
             if group.mode == "joint" and group.runner.algorithm.symmetry_cfg is not None:
                 raise ConfigError(f"group '{name}': the left-right mirror is defined per robot; a 'joint' group "
                                   f"cannot use it (set agent.groups.{name}.runner.algorithm.symmetry_cfg=null)")
-            group.runner.num_steps_per_env = rollout_steps // view.env.decimation
+            group.runner.num_steps_per_env = rollout_steps // view.env.cfg.decimation
             runner_dir = None if log_dir is None else os.path.join(log_dir, name)
             self.views[name] = view
             self.runners[name] = CheckpointingRunner(view, to_rsl_rl_dict(group.runner), log_dir=runner_dir, device=device)
@@ -99,8 +99,3 @@ class MultiAgentRunner:
                 runner.save(os.path.join(runner.logger.log_dir, f"model_{self.current_learning_iteration}.pt"))
                 runner.logger.stop_logging_writer()
         self.current_learning_iteration += 1
-
-    def checkpoint_paths(self) -> dict[str, str]:
-        """The newest checkpoint of each group."""
-        return {g: os.path.join(r.logger.log_dir, f"model_{r.current_learning_iteration}.pt")
-                for g, r in self.runners.items() if r.logger.log_dir is not None}

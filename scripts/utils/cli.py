@@ -204,13 +204,17 @@ def load_task(args) -> tuple:
 
 
 def make_env(task: str, env_cfg, device: str):
+    """The task's env (a ManagerBasedRLEnv, or a MultiAgentEnv for a multi-agent config); a config error ends the
+    script in one line."""
+    from agile.marl import MultiAgentEnv, MultiAgentEnvCfg
     from agile.rl_env import ManagerBasedRLEnv
     from agile.utils.config import ConfigError
 
     print(f"[agile] building {task}: {env_cfg.num_envs} envs on {device} (the first run on a machine compiles "
           f"the Warp kernels, a minute or two)", flush=True)
+    env_class = MultiAgentEnv if isinstance(env_cfg, MultiAgentEnvCfg) else ManagerBasedRLEnv
     try:
-        return ManagerBasedRLEnv(env_cfg, task_name=task, device=device)
+        return env_class(env_cfg, task_name=task, device=device)
     except ConfigError as err:
         fail(str(err))
 

@@ -21,15 +21,7 @@ def is_multi_agent(task: str) -> bool:
 
 
 def make_world(task: str, env_cfg, device: str):
-    from agile.marl import MultiAgentEnv
-    from agile.utils.config import ConfigError
-
-    print(f"[agile] building {task}: {env_cfg.num_envs} envs on {device} (the first run on a machine compiles "
-          f"the Warp kernels, a minute or two)", flush=True)
-    try:
-        world = MultiAgentEnv(env_cfg, task_name=task, device=device)
-    except ConfigError as err:
-        cli.fail(str(err))
+    world = cli.make_env(task, env_cfg, device)
     print(f"[agile] agents {list(world.agents)}; schedule (physics steps, {world.physics_dt_s * 1000:g} ms): "
           f"{world.schedule.describe()}")
     return world
@@ -63,9 +55,8 @@ def check_train_args(args) -> None:
     if args.video or args.init_action_std is not None or args.rnn:
         cli.fail("--video, --init_action_std and --rnn are single-agent options (multi-agent training takes "
                  "--init_policy GROUP=PATH, --resume and --checkpoint RUN_FOLDER)")
-    if args.checkpoint and not os.path.isdir(args.checkpoint):
-        cli.fail(f"--checkpoint of a multi-agent task is a training run folder (<run>/<group>/model_<it>.pt), got "
-                 f"{args.checkpoint}")
+    if args.checkpoint:
+        check_run_folder(args.checkpoint)
     if (args.resume or args.checkpoint) and args.init_policy:
         cli.fail("--init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
 

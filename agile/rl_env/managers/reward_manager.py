@@ -13,18 +13,24 @@ class RewardManager:
         self.env = env
         self.term_cfgs = collect_terms(cfg, RewTerm)
         self.funcs = {n: prepare_term(env, "reward", n, t) for n, t in self.term_cfgs.items()}
-        # live weights are device scalars, so a curriculum can change them inside a captured step;
-        # terms configured with weight 0 are not computed at all
-        self.weights = {name: torch.tensor(float(t.weight), device=env.device)
-                        for name, t in self.term_cfgs.items() if t.weight != 0.0}
-        n = env.num_envs
+        names = list(self.term_cfgs)
+        self._row = {name: i for i, name in enumerate(names)}
+        n, t = env.num_envs, len(names)
+        # the per-step work is done on (terms, envs) tensors, a few kernels for all terms; the dicts below hold
+        # row views of them. Live weights are device scalars, so a curriculum can change them inside a captured
+        # step; terms configured with weight 0 are not computed at all
+        self._weights = torch.tensor([float(c.weight) for c in self.term_cfgs.values()], device=env.device)
+        self.weights = {name: self._weights[i] for i, name in enumerate(names) if self.term_cfgs[name].weight != 0.0}
         self.reward_buf = torch.zeros(n, device=env.device)
-        self.episode_sums = {name: torch.zeros(n, device=env.device) for name in self.term_cfgs}
-        self.step_reward = {name: torch.zeros(n, device=env.device) for name in self.term_cfgs}
-        self.nonfinite_count = {name: torch.zeros((), dtype=torch.long, device=env.device) for name in self.term_cfgs}
+        self._episode_sums = torch.zeros(t, n, device=env.device)
+        self.episode_sums = {name: self._episode_sums[i] for i, name in enumerate(names)}
+        self._step_reward = torch.zeros(t, n, device=env.device)
+        self.step_reward = {name: self._step_reward[i] for i, name in enumerate(names)}
+        """Each term's weighted contribution of the last step (before dt), for debugging and GUIs."""
+        self._nonfinite_count = torch.zeros(t, dtype=torch.long, device=env.device)
+        self.nonfinite_count = {name: self._nonfinite_count[i] for i, name in enumerate(names)}
         """Per term, how many env-steps it returned NaN or an infinity (counted as 0 in the reward), since the
         start: logged as `Reward_NonFinite/<term>`."""
-        """Each term's weighted contribution of the last step (before dt), for debugging and GUIs."""
 
     @property
     def active_terms(self) -> list[str]:
@@ -50,28 +56,29 @@ class RewardManager:
         """Weighted terms times dt, summed; where `active` (N,) is False (a world that blew up, a multi-agent robot
         frozen after its death) every term counts 0, in the reward and the episode sums. A NaN or infinite term
         value counts 0 too, and is counted in `nonfinite_count`."""
-        self.reward_buf.zero_()
-        for name, weight in self.weights.items():
-            cfg = self.term_cfgs[name]
-            value = self.funcs[name](self.env, **cfg.params) * weight
-            if active is not None:
-                value = torch.where(active, value, 0.0)
-            finite = torch.isfinite(value)
-            self.nonfinite_count[name] += (~finite).sum()
-            value = torch.where(finite, value, 0.0)
-            self.step_reward[name][:] = value
-            self.reward_buf += value * dt
-            self.episode_sums[name] += value * dt
+        for name in self.weights:
+            self._step_reward[self._row[name]].copy_(self.funcs[name](self.env, **self.term_cfgs[name].params))
+        values = self._step_reward * self._weights.unsqueeze(1)  # rows of weight-0 terms stay 0
+        if active is not None:
+            values = torch.where(active, values, 0.0)
+        finite = torch.isfinite(values)
+        self._nonfinite_count += (~finite).sum(dim=1)
+        values = torch.where(finite, values, 0.0)
+        self._step_reward.copy_(values)
+        torch.sum(values, dim=0, out=self.reward_buf)
+        self.reward_buf *= dt
+        self._episode_sums += values * dt
         return self.reward_buf
 
     def reset(self, env_mask: torch.Tensor) -> dict[str, torch.Tensor]:
         """Zero the sums of finished episodes; return their per-second means (over the finished envs)."""
         count = env_mask.sum().clamp(min=1)
         max_len_s = self.env.max_episode_length_s
+        means = (self._episode_sums * env_mask).sum(dim=1) / count / max_len_s
+        self._episode_sums.masked_fill_(env_mask, 0.0)
         log = {}
-        for name, sums in self.episode_sums.items():
-            log[f"Episode_Reward/{name}"] = torch.where(env_mask, sums, 0.0).sum() / count / max_len_s
-            sums.masked_fill_(env_mask, 0.0)
+        for name, i in self._row.items():
+            log[f"Episode_Reward/{name}"] = means[i]
             log[f"Reward_NonFinite/{name}"] = self.nonfinite_count[name]
         for func in self.funcs.values():
             reset_term(func, env_mask)
