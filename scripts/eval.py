@@ -3,64 +3,197 @@
     python scripts/eval.py --task Velocity-G1-History-v0 --num_envs 256 --num_episodes 2   # shipped policy
     python scripts/eval.py --task Velocity-T1-v0 --checkpoint model.pt --device cpu --num_envs 2 --out eval.json
     python scripts/eval.py --task Velocity-G1-History-v0 --device cpu --num_envs 2 --command 0.5 0 0   # walk
+    python scripts/eval.py --task Velocity-Height-G1-v0 --num_envs 1024 --sweep_lin_vel_x -0.5 0 0.5 \
+        --sweep_base_height 0.4 0.56 0.72 --out sweep.json                      # a table and sweep.png
 
 Each env runs `num_episodes` episodes of `episode_length_s` (pushes off unless --pushes). Commands are
 drawn by the task's command term (uniform over its ranges, a share standing), or fixed with --command.
 Without --checkpoint the policy shipped with agile for the task is evaluated. Prints and writes JSON.
+Tasks with a base-height command also report the height error (commanded minus measured above the terrain).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 
 from utils import cli, multi_agent
 from utils.policy import inference_cfg, load_policy
 
 
-def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity", recorders=()) -> dict:
+def height_command_sensor(env, command_name: str) -> str | None:
+    """The height scanner that measures the commanded base height, for a command with a height (a 4th value)."""
+    term = env.command_manager.get_term(command_name)
+    return term.cfg.height_sensor_name if term.command.shape[1] >= 4 else None
+
+
+def evaluate_per_env(env, policy, num_episodes: int, command_name: str = "base_velocity", recorders=()) -> dict:
+    """Sums per env over `num_episodes` episodes of every env: (N,) tensors of tracking errors over the steps
+    alive, steps alive, episodes ended, falls and ended episodes' lengths; and each reward term's total."""
     import torch
 
+    from agile.rl_env.mdp import base_height_above_ground
+
     n = env.num_envs
-    steps = num_episodes * env.max_episode_length
-    lin_err_sum = torch.zeros((), device=env.device)
-    ang_err_sum = torch.zeros((), device=env.device)
-    moving_steps = torch.zeros((), device=env.device)
-    ended = falls = 0
-    episode_steps = torch.zeros(n, device=env.device)
-    ended_length_steps = torch.zeros((), device=env.device)
+    zeros = lambda: torch.zeros(n, device=env.device)  # noqa: E731
+    sums = {key: zeros() for key in ("lin_vel_error_mps", "ang_vel_error_radps", "base_height_error_m",
+                                     "steps_alive", "episodes", "falls", "ended_length_steps")}
+    episode_steps = zeros()
     term_sums = {name: torch.zeros((), device=env.device) for name in env.reward_manager.weights}
     robot = env.scene[env.action_manager.policy_entity_name()]  # the robot the policy drives
+    height_sensor = height_command_sensor(env, command_name)
     obs, _ = env.reset()
     with torch.inference_mode():
-        for step in range(steps):
+        for step in range(num_episodes * env.max_episode_length):
             command = env.command_manager.get_command(command_name).clone()
             obs, reward, terminated, truncated, _ = env.step(policy(obs))
             for recorder in recorders:
                 recorder.record(env, step * env.step_dt)
-            alive = ~(terminated | truncated)  # the state of a reset env is its new episode's first state
-            lin_err = torch.linalg.norm(command[:, :2] - robot.root_lin_vel_b[:, :2], dim=1)
-            ang_err = (command[:, 2] - robot.root_ang_vel_b[:, 2]).abs()
-            lin_err_sum += (lin_err * alive).sum()
-            ang_err_sum += (ang_err * alive).sum()
-            moving_steps += alive.sum()
+            done = terminated | truncated
+            alive = (~done).float()  # the state of a reset env is its new episode's first state
+            sums["lin_vel_error_mps"] += torch.linalg.norm(command[:, :2] - robot.root_lin_vel_b[:, :2], dim=1) * alive
+            sums["ang_vel_error_radps"] += (command[:, 2] - robot.root_ang_vel_b[:, 2]).abs() * alive
+            if height_sensor is not None:
+                height_m = base_height_above_ground(env, sensor_name=height_sensor)
+                sums["base_height_error_m"] += (command[:, 3] - height_m).abs() * alive
+            sums["steps_alive"] += alive
             for name in term_sums:
                 term_sums[name] += env.reward_manager.step_reward[name].sum()
-            done = terminated | truncated
             episode_steps += 1
-            ended_length_steps += (episode_steps * done).sum()
+            sums["ended_length_steps"] += episode_steps * done
             episode_steps.masked_fill_(done, 0.0)
-            ended += int(done.sum())
-            falls += int(terminated.sum())
-    total = float(moving_steps)
-    return {
-        "num_envs": n, "episodes": ended, "falls": falls,
-        "fall_rate": falls / max(ended, 1),
-        "lin_vel_error_mps": float(lin_err_sum) / total,
-        "ang_vel_error_radps": float(ang_err_sum) / total,
-        "mean_episode_length_s": float(ended_length_steps) * env.step_dt / max(ended, 1),
-        "reward_per_step": {name: float(v) / (n * steps) for name, v in term_sums.items()},
-    }
+            sums["episodes"] += done.float()
+            sums["falls"] += terminated.float()
+    return {"sums": sums, "reward_totals": term_sums, "steps": num_episodes * env.max_episode_length,
+            "has_height_command": height_sensor is not None}
+
+
+def summarise(sums: dict, step_dt: float, has_height_command: bool, mask=None) -> dict:
+    """The metrics of the envs in `mask` (all envs if None) from `evaluate_per_env`'s sums."""
+    total = {key: float(value.sum() if mask is None else value[mask].sum()) for key, value in sums.items()}
+    episodes = max(total["episodes"], 1.0)
+    steps_alive = max(total["steps_alive"], 1.0)
+    metrics = {"episodes": int(total["episodes"]), "falls": int(total["falls"]),
+               "fall_rate": total["falls"] / episodes,
+               "lin_vel_error_mps": total["lin_vel_error_mps"] / steps_alive,
+               "ang_vel_error_radps": total["ang_vel_error_radps"] / steps_alive,
+               "mean_episode_length_s": total["ended_length_steps"] * step_dt / episodes}
+    if has_height_command:
+        metrics["base_height_error_m"] = total["base_height_error_m"] / steps_alive
+    return metrics
+
+
+def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity", recorders=()) -> dict:
+    """Tracking errors (over the steps alive), fall rate and episode length over every env's `num_episodes`
+    episodes; the base-height error too where the command has a height."""
+    result = evaluate_per_env(env, policy, num_episodes, command_name, recorders)
+    metrics = {"num_envs": env.num_envs,
+               **summarise(result["sums"], env.step_dt, result["has_height_command"])}
+    metrics["reward_per_step"] = {name: float(v) / (env.num_envs * result["steps"])
+                                  for name, v in result["reward_totals"].items()}
+    return metrics
+
+
+def sweep_cells(lin_vel_x_mps: list[float], base_height_m: list[float] | None) -> list[tuple[float, ...]]:
+    """The commands of a sweep grid: (vx, 0, 0) or (vx, 0, 0, h), vx fastest."""
+    if base_height_m is None:
+        return [(vx, 0.0, 0.0) for vx in lin_vel_x_mps]
+    return [(vx, 0.0, 0.0, h) for h in base_height_m for vx in lin_vel_x_mps]
+
+
+def sweep(env, policy, num_episodes: int, cells: list[tuple[float, ...]], command_name: str = "base_velocity") -> list:
+    """Each env holds one cell's command (env i: cell i mod cells) for all its episodes; metrics per cell."""
+    import torch
+
+    term = env.command_manager.get_term(command_name)
+    if len(cells[0]) != term.command.shape[1]:
+        cli.fail(f"the sweep gives {len(cells[0])} command values; {command_name} has {term.command.shape[1]} "
+                 "(--sweep_base_height is for tasks with a height command)")
+    if env.num_envs < len(cells):
+        cli.fail(f"the sweep has {len(cells)} cells: use at least that many envs (--num_envs)")
+    cell_of_env = torch.arange(env.num_envs, device=env.device) % len(cells)
+    term.set_fixed_command(torch.tensor(cells, device=env.device)[cell_of_env])
+    result = evaluate_per_env(env, policy, num_episodes, command_name)
+    rows = []
+    for i, cell in enumerate(cells):
+        metrics = summarise(result["sums"], env.step_dt, result["has_height_command"], mask=cell_of_env == i)
+        rows.append({"command": list(cell), "num_envs": int((cell_of_env == i).sum()), **metrics})
+    return rows
+
+
+def sweep_table(rows: list) -> str:
+    """The sweep as a Markdown table."""
+    height = "base_height_error_m" in rows[0]
+    header = "| vx [m/s] |" + (" height [m] |" if height else "") + " fall rate | vel error [m/s] |" + \
+        (" height error [m] |" if height else "") + " episodes |"
+    lines = [header, "|" + "---|" * (header.count("|") - 1)]
+    for row in rows:
+        cells = [f"{row['command'][0]:+.2f}"] + ([f"{row['command'][3]:.2f}"] if height else [])
+        cells += [f"{row['fall_rate']:.3f}", f"{row['lin_vel_error_mps']:.3f}"]
+        cells += [f"{row['base_height_error_m']:.3f}"] if height else []
+        cells += [str(row["episodes"])]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def sweep_heat_map(rows: list, path: str, title: str) -> None:
+    """A PNG with one heat map per metric over (vx, height) (or a row of vx without a height command)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    height = "base_height_error_m" in rows[0]
+    vxs = sorted({r["command"][0] for r in rows})
+    hs = sorted({r["command"][3] for r in rows}) if height else [0.0]
+    metrics = ["fall_rate", "lin_vel_error_mps"] + (["base_height_error_m"] if height else [])
+    fig, axes = plt.subplots(1, len(metrics), figsize=(4.5 * len(metrics), 3.6), squeeze=False)
+    for ax, metric in zip(axes[0], metrics):
+        grid = np.full((len(hs), len(vxs)), np.nan)
+        for r in rows:
+            grid[hs.index(r["command"][3]) if height else 0, vxs.index(r["command"][0])] = r[metric]
+        image = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis")
+        ax.set_xticks(range(len(vxs)), [f"{v:+.2f}" for v in vxs])
+        ax.set_yticks(range(len(hs)), [f"{h:.2f}" for h in hs] if height else [""])
+        ax.set_xlabel("commanded vx [m/s]")
+        ax.set_ylabel("commanded base height [m]" if height else "")
+        for (i, j), value in np.ndenumerate(grid):
+            ax.text(j, i, f"{value:.3f}", ha="center", va="center", color="w", fontsize=7)
+        ax.set_title(metric)
+        fig.colorbar(image, ax=ax)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+def run_sweep(args, env, policy, checkpoint: str, device: str) -> None:
+    rows = sweep(env, policy, args.num_episodes, sweep_cells(args.sweep_lin_vel_x, args.sweep_base_height))
+    print(sweep_table(rows))
+    if args.out:
+        result = {"task": args.task, "checkpoint": checkpoint, "device": device, "num_envs": env.num_envs,
+                  "episodes_per_env": args.num_episodes, "episode_length_s": args.episode_length_s, "cells": rows}
+        with open(args.out, "w") as f:
+            json.dump(result, f, indent=2)
+        print(f"[agile] sweep: {args.out}")
+        plot_sweep(args.out)
+
+
+def plot_sweep(json_path: str) -> None:
+    """The heat map of a sweep's JSON, next to it (.png); where matplotlib is missing, how to make it later."""
+    import importlib.util
+
+    if importlib.util.find_spec("matplotlib") is None:
+        print(f"[agile] no heat map: matplotlib is missing (pip install 'agile[plot]', then "
+              f"python scripts/eval.py --plot_sweep {json_path})")
+        return
+    with open(json_path) as f:
+        result = json.load(f)
+    png = os.path.splitext(json_path)[0] + ".png"
+    sweep_heat_map(result["cells"], png, f"{result['task']}: {result['num_envs']} envs, "
+                                         f"{result['episodes_per_env']} x {result['episode_length_s']:g} s episodes")
+    print(f"[agile] heat map: {png}")
 
 
 def main(argv=None) -> None:
@@ -73,12 +206,22 @@ def main(argv=None) -> None:
     parser.add_argument("--num_episodes", type=int, default=1, help="episodes per env")
     parser.add_argument("--episode_length_s", type=float, default=20.0)
     parser.add_argument("--pushes", action="store_true", help="keep the task's interval events (pushes)")
+    parser.add_argument("--sweep_lin_vel_x", type=float, nargs="+", default=None, metavar="VX",
+                        help="evaluate a grid of fixed commands instead: these forward speeds [m/s] (vy = wz = 0) ...")
+    parser.add_argument("--sweep_base_height", type=float, nargs="+", default=None, metavar="H",
+                        help="... times these base heights [m] (tasks with a height command); a table, and with "
+                        "--out a heat map next to the JSON (.png)")
+    parser.add_argument("--plot_sweep", default=None, metavar="SWEEP.json",
+                        help="only draw the heat map of a sweep's JSON (no env, no policy)")
     parser.add_argument("--out", default=None, help="write the metrics as JSON here")
     parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
     parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
     cli.add_checkpoint_args(parser)
     args = cli.parse(parser, argv)
 
+    if args.plot_sweep:
+        plot_sweep(args.plot_sweep)
+        return
     if multi_agent.is_multi_agent(args.task):
         multi_agent.eval_main(args)
         return
@@ -108,7 +251,11 @@ def main(argv=None) -> None:
         recorders.append(UsdRecorder(args.usd, env, num_frames=args.num_episodes * env.max_episode_length))
     if args.video:
         recorders.append(VideoRecorder(args.video, env))
-    metrics = evaluate(env, load_policy(contents, env, agent_cfg), args.num_episodes, recorders=recorders)
+    policy = load_policy(contents, env, agent_cfg)
+    if args.sweep_lin_vel_x is not None:
+        run_sweep(args, env, policy, checkpoint, device)
+        return
+    metrics = evaluate(env, policy, args.num_episodes, recorders=recorders)
     for recorder in recorders:
         recorder.close()
     metrics.update({"task": args.task, "checkpoint": checkpoint, "device": device, "command": args.command,

@@ -22,17 +22,21 @@ def load_runner(checkpoint: dict, env, agent_cfg):
     from `cli.read_checkpoint`)."""
     from rsl_rl.runners import OnPolicyRunner
 
-    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, policy_obs_set, policy_state_key, to_rsl_rl_dict
     from agile.rl_env.rsl_rl.checkpoints import restore_runner
 
     from utils import cli
 
+    # a PPO checkpoint holds an actor, a distilled one a student: the other kind would load nothing that acts
+    if policy_state_key(agent_cfg) not in checkpoint:
+        cli.fail(f"the checkpoint holds {sorted(k for k in checkpoint if k.endswith('_state_dict'))}, not the "
+                 f"'{policy_state_key(agent_cfg)}' this task's policy needs")
     wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
     with cli.quiet_stdout():  # rsl-rl prints the whole actor and critic
         runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
-    # a shipped policy holds the actor only; a training checkpoint also the critic and optimizer
-    actor_only = "optimizer_state_dict" not in checkpoint
-    restore_runner(runner, checkpoint, load_cfg={"actor": True} if actor_only else None)
+    # a shipped policy holds the acting model only; a training checkpoint also the critic (or teacher) and optimizer
+    policy_only = "optimizer_state_dict" not in checkpoint
+    restore_runner(runner, checkpoint, load_cfg={policy_obs_set(agent_cfg): True} if policy_only else None)
     return runner
 
 

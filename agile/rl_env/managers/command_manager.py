@@ -16,6 +16,9 @@ class CommandTerm:
         self.env = env
         check_range("resampling_time_range_s", cfg.resampling_time_range_s, minimum=0.0)
         self.time_left_s = torch.zeros(env.num_envs, device=env.device)
+        self.fixed_command: torch.Tensor | None = None
+        """(N, D) values that replace the drawn command of every env while set (`set_fixed_command`): evaluation
+        at chosen commands, a different one per env if wished."""
 
     @property
     def command(self) -> torch.Tensor:
@@ -26,6 +29,26 @@ class CommandTerm:
 
     def _update_command(self) -> None:
         """Per-step update after resampling (e.g. heading control)."""
+
+    def set_fixed_command(self, values: torch.Tensor | None) -> None:
+        """Hold every env's command at `values` ((N, D) or (D,), the command's layout) from now on; None goes
+        back to drawing. The term keeps its timers and internal state (e.g. a smoothed height), overwritten.
+        Call it before the env's first step: on the GPU that step is captured as a CUDA graph, with or without
+        the overwrite."""
+        if values is None:
+            self.fixed_command = None
+            return
+        values = torch.as_tensor(values, dtype=torch.float32, device=self.env.device)
+        shape = tuple(self.command.shape)
+        if values.shape not in (shape, shape[1:]):
+            raise ValueError(f"fixed command of shape {tuple(values.shape)}; this command is {shape} (envs, values) "
+                             f"or {shape[1:]}")
+        self.fixed_command = values.expand(shape).clone()
+        self.command.copy_(self.fixed_command)
+
+    def _hold_fixed_command(self) -> None:
+        if self.fixed_command is not None:
+            self.command.copy_(self.fixed_command)
 
     def _draw_time_left(self, env_mask: torch.Tensor) -> None:
         low, high = self.cfg.resampling_time_range_s
@@ -38,11 +61,13 @@ class CommandTerm:
         self._draw_time_left(mask)
         self._resample(mask)
         self._update_command()
+        self._hold_fixed_command()
 
     def reset(self, env_mask: torch.Tensor) -> dict:
         self._draw_time_left(env_mask)
         self._resample(env_mask)
         self._update_command()
+        self._hold_fixed_command()
         return {}
 
 

@@ -14,7 +14,7 @@ import pickle
 import re
 
 import torch
-from rsl_rl.runners import OnPolicyRunner
+from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 
 TRUST_FLAG = "--trust_checkpoint"
 
@@ -62,3 +62,14 @@ class CheckpointingRunner(OnPolicyRunner):
         torch.save(saved, tmp_path)
         os.replace(tmp_path, path)
         self.logger.save_model(path, self.current_learning_iteration)
+
+
+class CheckpointingDistillationRunner(CheckpointingRunner, DistillationRunner):
+    """The same for distillation (rsl-rl's DistillationRunner refuses to learn before a teacher is loaded)."""
+
+
+def runner_class(agent_cfg) -> type[CheckpointingRunner]:
+    """The checkpointing runner for a PPO or a distillation agent config."""
+    from agile.rl_env.rsl_rl.runner_cfg import is_distillation
+
+    return CheckpointingDistillationRunner if is_distillation(agent_cfg) else CheckpointingRunner

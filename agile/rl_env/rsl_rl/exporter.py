@@ -15,7 +15,7 @@ import yaml
 
 from agile.rl_env.managers import ObsGroup, ObsTerm, SceneEntityCfg
 from agile.rl_env.managers.manager_base import collect_terms
-from agile.rl_env.rsl_rl.runner_cfg import RnnModelCfg
+from agile.rl_env.rsl_rl.runner_cfg import RnnModelCfg, policy_model_cfg, policy_obs_set
 from agile.utils.config import callable_name
 
 IO_DESCRIPTOR_VERSION = 2  # 2: the "policy" section (model input/output names, recurrent hidden state)
@@ -78,7 +78,7 @@ def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -
         if term.clip is not None:
             entry["clip"] = [_as_list(term.clip[0]), _as_list(term.clip[1])]
         actions.append(entry)
-    groups = agent_cfg.obs_groups["actor"]
+    groups = agent_cfg.obs_groups[policy_obs_set(agent_cfg)]
     actuators = {}
     for group in robot.actuator_groups:
         entry = {"type": type(group.cfg).__name__, "joint_names": _joint_names(robot, group.joint_ids)}
@@ -118,7 +118,7 @@ def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -
         "observation_groups": groups,
         "observations": {g: _observation_terms(env, g) for g in groups},
         "commands": commands,
-        "policy": _policy_interface(agent_cfg.actor),
+        "policy": _policy_interface(policy_model_cfg(agent_cfg)),
     }
 
 
@@ -161,4 +161,4 @@ def example_input(env, agent_cfg) -> torch.Tensor:
     from agile.rl_env.rsl_rl.vecenv_wrapper import flatten_groups
 
     obs = flatten_groups(env.obs_buf)
-    return torch.cat([obs[g] for g in agent_cfg.obs_groups["actor"]], dim=-1)
+    return torch.cat([obs[g] for g in agent_cfg.obs_groups[policy_obs_set(agent_cfg)]], dim=-1)

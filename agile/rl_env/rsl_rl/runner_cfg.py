@@ -91,19 +91,91 @@ def make_recurrent(cfg: PpoRunnerCfg, rnn_type: str = "lstm", rnn_hidden_dim: in
     cfg.algorithm.symmetry_cfg = None
 
 
-RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "clip_actions")
+@configclass
+class DistillationAlgorithmCfg:
+    """rsl-rl's Distillation (DAgger-style behaviour cloning of a teacher's actions), through agile's subclass
+    that adds an optional left-right mirror loss (rsl-rl refuses its symmetry extension for distillation)."""
+
+    class_name: str = "agile.rl_env.rsl_rl.distillation:Distillation"
+    num_learning_epochs: int = 5
+    gradient_length: int = 15
+    """Steps of the rollout between gradient steps (truncated backpropagation through time for an RNN)."""
+    learning_rate: float = 1.0e-3
+    max_grad_norm: float | None = 1.0
+    loss_type: str = "mse"
+    mirror_loss_coeff: float = 0.0
+    """Weight of |student(mirrored obs) - mirrored student(obs)|², for a non-recurrent student."""
+    mirror_func: str | None = None
+    """e.g. "agile.rl_env.mdp.symmetry:lr_mirror"; needed when mirror_loss_coeff > 0."""
 
 
-def to_rsl_rl_dict(cfg: PpoRunnerCfg) -> dict:
+@configclass
+class DistillationRunnerCfg:
+    """A student trained to act as a teacher policy does, the teacher seeing the privileged group "teacher".
+
+    `teacher` is the architecture of the teacher task's actor (`teacher_task`), so that its checkpoint or its
+    TorchScript export loads into it; the teacher is chosen at training time (`train.py --teacher PATH`)."""
+
+    experiment_name: str = "agile"
+    run_name: str = ""
+    seed: int = 42
+    num_steps_per_env: int = 24
+    max_iterations: int = 1000
+    save_interval: int = 100
+    logger: str = "tensorboard"
+    obs_groups: dict[str, list[str]] = field(default_factory=lambda: {"student": ["policy"],
+                                                                      "teacher": ["teacher"]})
+    clip_actions: float | None = None
+    check_for_nan: bool = True
+    torch_compile_mode: str | None = None
+    teacher_task: str = ""
+    """The registered task whose trained policy is the teacher (its `policy` group is this task's `teacher`)."""
+    algorithm: DistillationAlgorithmCfg = field(default_factory=DistillationAlgorithmCfg)
+    student: MlpModelCfg = field(default_factory=lambda: MlpModelCfg(distribution_cfg=DistributionCfg(init_std=0.1)))
+    teacher: MlpModelCfg = field(default_factory=lambda: MlpModelCfg(distribution_cfg=DistributionCfg()))
+
+
+RunnerCfg = PpoRunnerCfg | DistillationRunnerCfg
+
+
+def is_distillation(cfg: RunnerCfg) -> bool:
+    return isinstance(cfg, DistillationRunnerCfg)
+
+
+def policy_obs_set(cfg: RunnerCfg) -> str:
+    """The observation set of the model that acts (and is exported): rsl-rl's "actor", or "student"."""
+    return "student" if is_distillation(cfg) else "actor"
+
+
+def policy_model_cfg(cfg: RunnerCfg) -> MlpModelCfg:
+    """The config of the model that acts: the actor, or the student."""
+    return cfg.student if is_distillation(cfg) else cfg.actor
+
+
+def policy_state_key(cfg: RunnerCfg) -> str:
+    """Its weights' key in an rsl-rl checkpoint."""
+    return f"{policy_obs_set(cfg)}_state_dict"
+
+
+RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "clip_actions", "teacher_task")
+
+
+def to_rsl_rl_dict(cfg: RunnerCfg) -> dict:
     """The train_cfg dict of `rsl_rl.runners.OnPolicyRunner` (keys of ours that it does not know removed)."""
-    for model in (cfg.actor, cfg.critic):
+    if is_distillation(cfg):
+        if cfg.algorithm.mirror_loss_coeff > 0.0 and cfg.algorithm.mirror_func is None:
+            raise ConfigError("algorithm.mirror_loss_coeff > 0 needs algorithm.mirror_func")
+        if cfg.algorithm.mirror_loss_coeff > 0.0 and isinstance(cfg.student, RnnModelCfg):
+            raise ConfigError("algorithm.mirror_loss_coeff: the mirror loss is for non-recurrent students "
+                              "(a recurrent student's output depends on its hidden state, not mirrored)")
+    for model in (policy_model_cfg(cfg), cfg.teacher if is_distillation(cfg) else cfg.critic):
         # rsl-rl builds an LSTM for any rnn_type other than "gru", so a typo would silently train an LSTM
         if isinstance(model, RnnModelCfg) and model.rnn_type not in RNN_TYPES:
             raise ConfigError(f"rnn_type '{model.rnn_type}' is not one of {RNN_TYPES}")
     d = to_dict(cfg)
     for key in RUNNER_ONLY_KEYS:
         d.pop(key, None)
-    for model in ("actor", "critic"):
+    for model in ("student", "teacher") if is_distillation(cfg) else ("actor", "critic"):
         if d[model].get("distribution_cfg") is None:
             d[model].pop("distribution_cfg", None)
     return d

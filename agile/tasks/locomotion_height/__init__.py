@@ -1,0 +1,1 @@
+"""Velocity and base-height tasks (AGILE `locomotion_height`)."""

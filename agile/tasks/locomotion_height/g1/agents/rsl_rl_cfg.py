@@ -1,0 +1,60 @@
+"""AGILE's Velocity-Height-G1 runners: the privileged teacher by PPO, two students distilled from it (§5), and
+the history policy trained by PPO directly."""
+
+from agile.rl_env.rsl_rl import (DistillationAlgorithmCfg, DistillationRunnerCfg, DistributionCfg, MlpModelCfg,
+                                 PpoRunnerCfg, RnnModelCfg)
+from agile.tasks.locomotion.velocity_ppo_cfg import velocity_ppo_runner_cfg
+
+TEACHER_TASK = "Velocity-Height-G1-Teacher-v0"
+ACTION_CLIP = 6.0
+"""AGILE clips the raw leg actions to ±6 (the action scale turns 1 into a quarter of the effort limit's PD
+offset, so ±6 spans every reachable target)."""
+
+
+def _ppo_runner_cfg(experiment_name: str) -> PpoRunnerCfg:
+    """AGILE G1VelocityHeightPpoRunnerCfg: the G1 velocity runner with entropy 0.01, 30k iterations."""
+    cfg = velocity_ppo_runner_cfg(experiment_name=experiment_name, max_iterations=30_000)
+    cfg.algorithm.entropy_coef = 0.01
+    cfg.clip_actions = ACTION_CLIP
+    return cfg
+
+
+def g1_velocity_height_teacher_ppo_runner_cfg() -> PpoRunnerCfg:
+    return _ppo_runner_cfg("velocity_height_g1_teacher")
+
+
+def g1_velocity_height_history_ppo_runner_cfg() -> PpoRunnerCfg:
+    return _ppo_runner_cfg("velocity_height_g1_history")
+
+
+def _teacher_model_cfg() -> MlpModelCfg:
+    """The teacher's actor, as the teacher runner builds it, so that its checkpoint or export loads."""
+    return _ppo_runner_cfg("teacher").actor
+
+
+def _distillation_runner_cfg(experiment_name: str, student: MlpModelCfg,
+                             algorithm: DistillationAlgorithmCfg) -> DistillationRunnerCfg:
+    """AGILE G1VelocityHeightDistillation*RunnerCfg: 10k iterations, 5 epochs, lr 1e-3, grad norm 1, MSE."""
+    return DistillationRunnerCfg(
+        experiment_name=experiment_name, num_steps_per_env=24, max_iterations=10_000, save_interval=250,
+        clip_actions=ACTION_CLIP, teacher_task=TEACHER_TASK, algorithm=algorithm, student=student,
+        teacher=_teacher_model_cfg())
+
+
+def g1_velocity_height_recurrent_student_runner_cfg() -> DistillationRunnerCfg:
+    """LSTM (256) then MLP [256, 256, 128]; truncated backpropagation through 15 steps (5 × 24 = 120 steps per
+    update, 8 gradient steps)."""
+    student = RnnModelCfg(hidden_dims=[256, 256, 128], activation="elu", obs_normalization=True,
+                          distribution_cfg=DistributionCfg(init_std=0.1), rnn_type="lstm", rnn_hidden_dim=256,
+                          rnn_num_layers=1)
+    return _distillation_runner_cfg("velocity_height_g1_student_recurrent", student,
+                                    DistillationAlgorithmCfg(num_learning_epochs=5, gradient_length=15))
+
+
+def g1_velocity_height_history_student_runner_cfg() -> DistillationRunnerCfg:
+    """MLP [512, 256, 128] on 5 steps of history, with AGILE's mirror loss (coefficient 0.1)."""
+    student = MlpModelCfg(hidden_dims=[512, 256, 128], activation="elu", obs_normalization=True,
+                          distribution_cfg=DistributionCfg(init_std=0.1))
+    algorithm = DistillationAlgorithmCfg(num_learning_epochs=5, gradient_length=15, mirror_loss_coeff=0.1,
+                                         mirror_func="agile.rl_env.mdp.symmetry:lr_mirror")
+    return _distillation_runner_cfg("velocity_height_g1_student_history", student, algorithm)
