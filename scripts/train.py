@@ -77,6 +77,28 @@ def initial_actor_checkpoint(checkpoint: dict, path: str, log_dir: str, action_s
     return checkpoint
 
 
+def distillation_teacher(args, agent_cfg, resuming: bool) -> str | None:
+    """The teacher file of a distillation run (None for PPO, and when resuming: the checkpoint holds it)."""
+    import agile.tasks
+    from agile.rl_env.rsl_rl import is_distillation
+
+    if not is_distillation(agent_cfg):
+        if args.teacher:
+            cli.fail(f"--teacher: {args.task} is trained by PPO, not distilled from a teacher")
+        return None
+    if args.init_policy:
+        cli.fail(f"--init_policy: {args.task} is distilled; its student starts fresh or from --resume")
+    if resuming:
+        return None
+    path = args.teacher or agile.tasks.pretrained_policy(agent_cfg.teacher_task)
+    if path is None:
+        cli.fail(f"{args.task} distils the policy of {agent_cfg.teacher_task}, and agile ships none: train it "
+                 f"first and give --teacher PATH (its model_<it>.pt or exported/policy.pt)")
+    if not os.path.isfile(path):
+        cli.fail(f"--teacher file not found: {path}")
+    return str(path)
+
+
 def main(argv=None) -> None:
     parser = cli.new_parser(__doc__)
     cli.add_common_args(parser)
@@ -99,6 +121,9 @@ def main(argv=None) -> None:
                         "iterations into <log dir>/videos (a separate 1-env world, rendered headless)")
     parser.add_argument("--video_interval", type=int, default=500, help="iterations between clips")
     parser.add_argument("--video_length", type=int, default=200, help="env steps per clip")
+    parser.add_argument("--teacher", default=None, metavar="PATH",
+                        help="distillation tasks: the teacher, a PPO checkpoint of the teacher task or its TorchScript "
+                        "export (default: the policy agile ships for the teacher task)")
     cli.add_checkpoint_args(parser)
     args = cli.parse(parser, argv)
 
@@ -134,9 +159,11 @@ def main(argv=None) -> None:
         cli.fail("--init_action_std needs --init_policy and a positive value "
                  "(a new run's initial std is agent.actor.distribution_cfg.init_std)")
     init_contents = cli.read_checkpoint(args.init_policy, args.trust_checkpoint) if args.init_policy else None
+    teacher_path = distillation_teacher(args, agent_cfg, resuming=resume_path is not None)
 
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
-    from agile.rl_env.rsl_rl.checkpoints import CheckpointingRunner, restore_runner
+    from agile.rl_env.rsl_rl.checkpoints import restore_runner, runner_class
+    from agile.rl_env.rsl_rl.distillation import load_teacher
 
     env = cli.make_env(args.task, env_cfg, device)
     print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
@@ -145,7 +172,7 @@ def main(argv=None) -> None:
     cli.dump_configs(log_dir, env_cfg, agent_cfg)
     wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
     with cli.quiet_stdout():
-        runner = CheckpointingRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
+        runner = runner_class(agent_cfg)(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
     runner.logger.git_status_repos = cli.git_repos()
     if resume_path:
         print(f"[agile] resuming from {resume_path}")
@@ -156,6 +183,12 @@ def main(argv=None) -> None:
         else:
             print("[agile] the checkpoint holds no env state (an older checkpoint): curricula start over")
         print(f"[agile] continuing at iteration {runner.current_learning_iteration}")
+    if teacher_path:
+        print(f"[agile] teacher: {teacher_path}")
+        try:
+            load_teacher(runner, teacher_path, trust=args.trust_checkpoint)
+        except ValueError as err:
+            cli.fail(str(err))
     if args.init_policy:
         print(f"[agile] actor initialised from {args.init_policy}")
         start = initial_actor_checkpoint(init_contents, args.init_policy, log_dir, args.init_action_std)
