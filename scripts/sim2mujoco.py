@@ -8,7 +8,8 @@ Nothing of the training framework is used: observations and actions are rebuilt 
 the joint torques come from the descriptor's gains and DC-motor limits (computed at the physics rate and
 applied as joint forces), and the robot collides with a ground plane. A recurrent policy carries its hidden
 state from step to step and starts each episode from zeros. The actuator delays of training are not
-modelled. Reports fall rate and velocity tracking errors like scripts/eval.py; writes JSON with --out.
+modelled. Reports fall rate and velocity tracking errors like scripts/eval.py (and the base-height error for a
+height command); writes JSON with --out.
 """
 
 from __future__ import annotations
@@ -206,6 +207,28 @@ def load_policy(path: str, interface: dict):
     return TorchScriptPolicy(path)
 
 
+class CommandSampler:
+    """Draws an episode's command as the training command term did, from the descriptor's "commands" entry:
+    (vx, vy, wz) uniform in the ranges, or for a velocity-and-height command (a `base_height_m` range) either
+    standing still at a uniform height (a `rel_standing_envs` share) or walking at `default_height_m`."""
+
+    def __init__(self, spec: dict, rng: np.random.Generator):
+        self.ranges = spec["ranges"]
+        self.params = spec.get("params", {})
+        self.rng = rng
+        self.has_height = "base_height_m" in self.ranges
+        self.dim = 4 if self.has_height else 3
+        self.lowest_height_m = self.ranges["base_height_m"][0] if self.has_height else math.inf
+
+    def __call__(self) -> list[float]:
+        velocity = [self.rng.uniform(*self.ranges[k]) for k in ("lin_vel_x", "lin_vel_y", "ang_vel_z")]
+        if not self.has_height:
+            return velocity
+        if self.rng.uniform() < self.params.get("rel_standing_envs", 0.0):
+            return [0.0, 0.0, 0.0, self.rng.uniform(*self.ranges["base_height_m"])]
+        return [*velocity, self.params.get("default_height_m", self.ranges["base_height_m"][1])]
+
+
 def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s: float, command=None,
         seed: int = 0, on_frame=None) -> dict:
     import mujoco
@@ -218,10 +241,12 @@ def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s
     policy = load_policy(policy_path, descriptor["policy"])
     action_terms = descriptor["actions"]
     action_dim = sum(len(a["joint_names"]) for a in action_terms)
-    ranges = next(iter(descriptor["commands"].values()))["ranges"]
+    draw_command = CommandSampler(next(iter(descriptor["commands"].values())), rng)
     decimation = descriptor["decimation"]
     steps = int(round(duration_s / descriptor["control_dt_s"]))
-    falls, lin_errors, ang_errors, lengths = 0, [], [], []
+    falls, lin_errors, ang_errors, height_errors, lengths = 0, [], [], [], []
+    # a fall: tilted over, or the root below half its lowest commanded height (a crouch is not a fall)
+    fall_height_m = FALL_HEIGHT_FRACTION * min(descriptor["default_root_height_m"], draw_command.lowest_height_m)
     for _ in range(episodes):
         mujoco.mj_resetData(model, data)
         data.qpos[2] = descriptor["default_root_height_m"]
@@ -230,9 +255,9 @@ def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s
         mujoco.mj_forward(model, data)
         observer.reset()
         policy.reset()
-        cmd = np.array(command if command is not None else
-                       [rng.uniform(*ranges["lin_vel_x"]), rng.uniform(*ranges["lin_vel_y"]),
-                        rng.uniform(*ranges["ang_vel_z"])])
+        cmd = np.array(command if command is not None else draw_command())
+        if len(cmd) != draw_command.dim:
+            raise ValueError(f"--command has {len(cmd)} values; the policy's command has {draw_command.dim}")
         last_action = np.zeros(action_dim)
         for step in range(steps):
             action = np.asarray(policy(observer(data, cmd, last_action)), dtype=np.float64)
@@ -254,15 +279,20 @@ def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s
             v_b = robot.root_lin_vel_b(data)
             lin_errors.append(float(np.linalg.norm(cmd[:2] - v_b[:2])))
             ang_errors.append(float(abs(cmd[2] - data.qvel[5])))
+            if draw_command.dim == 4:  # the base height above the ground plane
+                height_errors.append(float(abs(cmd[3] - data.qpos[2])))
             gravity_z = rotate_inverse(data.qpos[3:7], np.array([0.0, 0.0, -1.0]))[2]
             tilt = math.acos(max(-1.0, min(1.0, -gravity_z)))
-            if tilt > FALL_TILT_RAD or data.qpos[2] < FALL_HEIGHT_FRACTION * descriptor["default_root_height_m"]:
+            if tilt > FALL_TILT_RAD or data.qpos[2] < fall_height_m:
                 falls += 1
                 break
         lengths.append((step + 1) * descriptor["control_dt_s"])
-    return {"episodes": episodes, "falls": falls, "fall_rate": falls / episodes,
-            "lin_vel_error_mps": float(np.mean(lin_errors)), "ang_vel_error_radps": float(np.mean(ang_errors)),
-            "mean_episode_length_s": float(np.mean(lengths))}
+    metrics = {"episodes": episodes, "falls": falls, "fall_rate": falls / episodes,
+               "lin_vel_error_mps": float(np.mean(lin_errors)), "ang_vel_error_radps": float(np.mean(ang_errors)),
+               "mean_episode_length_s": float(np.mean(lengths))}
+    if height_errors:
+        metrics["base_height_error_m"] = float(np.mean(height_errors))
+    return metrics
 
 
 def default_mjcf(descriptor: dict) -> str:
@@ -313,8 +343,8 @@ def main(argv=None) -> None:
     parser.add_argument("--mjcf", default=None, help="robot MJCF (default: the asset package's file)")
     parser.add_argument("--episodes", type=int, default=3)
     parser.add_argument("--duration_s", type=float, default=10.0)
-    parser.add_argument("--command", type=float, nargs=3, default=None, metavar=("VX", "VY", "WZ"),
-                        help="fixed command (default: drawn per episode from the descriptor's ranges)")
+    parser.add_argument("--command", type=float, nargs="+", default=None, metavar="V",
+                        help="fixed command VX VY WZ [HEIGHT] (default: drawn per episode as in training)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", default=None, help="write the metrics as JSON here")
     parser.add_argument("--video", default=None, metavar="PATH.mp4",

@@ -92,7 +92,10 @@ def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -
     for name, term in env.command_manager.terms.items():
         ranges = getattr(term.cfg, "ranges", None)
         commands[name] = {"type": type(term).__name__,
-                          "ranges": {k: list(v) for k, v in vars(ranges).items()} if ranges is not None else None}
+                          "ranges": {k: list(v) for k, v in vars(ranges).items()} if ranges is not None else None,
+                          # how the command is drawn (standing share, walking height, ...), to draw alike elsewhere
+                          "params": {k: v for k, v in vars(term.cfg).items()
+                                     if isinstance(v, (int, float, bool)) and not isinstance(v, type)}}
     return {
         "version": IO_DESCRIPTOR_VERSION,
         "task": env.task_name,
