@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+from collections.abc import Callable
 
 import mujoco_warp
 import newton
@@ -118,6 +119,9 @@ class Simulation:
         self._world_mask_wp = wp.from_torch(self._world_mask, dtype=wp.bool)
         self._fk_mask_wp = wp.from_torch(self._world_mask[:num_envs], dtype=wp.bool)
         self._body_wrench_w = wp.to_torch(self.state.body_f).view(num_envs, -1, 6)
+        self.physics_step_hooks: list[Callable[[], None]] = []
+        """Work launched before every physics step after the actuators, e.g. an external wrench that follows the
+        state (a harness); added with `add_physics_step_hook`. Warp launches only: the loop is graph-captured."""
         self._graphs: dict[int, object] = {}
 
     def _make_contact_sensors(self, scene_cfg: SceneCfg, entities: dict, ground_shape: int) -> dict:
@@ -152,6 +156,8 @@ class Simulation:
         for substep in range(num_steps):
             for group in self.actuator_groups:
                 group.step(self.physics_dt_s, substep, num_steps)
+            for hook in self.physics_step_hooks:
+                hook()
             if self.collision_pipeline is not None:
                 self.collision_pipeline.collide(self.state, self.contacts)
             if not sensors:
@@ -195,6 +201,11 @@ class Simulation:
             sensor.reset(all_envs)
         self._graphs[num_steps] = capture.graph
         return capture.graph
+
+    def add_physics_step_hook(self, hook: Callable[[], None]) -> None:
+        """Run `hook` before every physics step; physics graphs captured without it are dropped."""
+        self.physics_step_hooks.append(hook)
+        self._graphs.clear()
 
     def solver_iterations(self) -> torch.Tensor:
         """(N,) solver iterations each world took in the last physics step. On a GPU MuJoCo Warp repeats its

@@ -6,4 +6,5 @@ from agile.rl_env.mdp.curriculums import *  # noqa: F401,F403
 from agile.rl_env.mdp.events import *  # noqa: F401,F403
 from agile.rl_env.mdp.observations import *  # noqa: F401,F403
 from agile.rl_env.mdp.rewards import *  # noqa: F401,F403
+from agile.rl_env.mdp.rewards_velocity_height import *  # noqa: F401,F403
 from agile.rl_env.mdp.terminations import *  # noqa: F401,F403

@@ -94,3 +94,59 @@ class terrain_levels_vel(ManagerTermBase):  # noqa: N801 (Isaac Lab's name)
         env.sim.update_terrain_levels(move_up, move_down)
         self.restart.copy_(env_mask)
         return env.sim.terrain_levels.float().mean()
+
+
+def remove_harness(env, env_mask, harness_action_name: str, start_step: int, num_steps: int) -> torch.Tensor:
+    """AGILE `remove_harness` (linear): the harness strength falls from 1 at `start_step` to 0 after
+    `num_steps` more env steps, then stays 0. Returns the strength."""
+    steps = torch.as_tensor(env.common_step_counter, dtype=torch.float32, device=env.device)
+    scale = 1.0 - ((steps - start_step) / max(num_steps, 1)).clamp(0.0, 1.0)
+    env.action_manager.get_term(harness_action_name).scale_forces(scale)
+    return scale
+
+
+class pushing_curriculum(ManagerTermBase):  # noqa: N801 (AGILE's name)
+    """AGILE `pushing_curriculum`: the push event's velocity ranges grow ×`growth` per env step while the share
+    of finishing episodes that fell (ended other than by time-out) is below the lower of
+    `fall_ratio_thresholds`, and shrink ×(2 - `growth`) (AGILE: 1.0001 and 0.9999) while it is above the upper
+    one; each axis's half-width stays within [min_vel, max_vel] (ranges are symmetric about 0; an axis not in
+    max_vel does not change). Steps
+    without a finishing episode change nothing. Returns the x range's upper bound [m/s].
+
+    The ranges live on the device as a per-axis scale of the event's configured `velocity_range`, which the
+    event (`push_by_setting_velocity`, param `velocity_scale`) multiplies its draws by: no host sync, so it
+    runs inside a captured step.
+    """
+
+    AXES = ("x", "y", "z", "roll", "pitch", "yaw")
+
+    def __init__(self, cfg, env):
+        super().__init__(cfg, env)
+        event_name = cfg.params.get("event_name", "push_robot")
+        event = env.event_manager.term_cfgs.get(event_name)
+        if event is None:
+            raise ValueError(f"pushing_curriculum: no event term '{event_name}'")
+        ranges = event.params["velocity_range"]
+        base = [max(abs(ranges.get(a, (0.0, 0.0))[0]), abs(ranges.get(a, (0.0, 0.0))[1])) for a in self.AXES]
+        self.base_mps = torch.tensor(base, device=env.device)
+        """Half-width of each axis's configured range [m/s, rad/s]."""
+        safe = self.base_mps.clamp(min=1e-9)
+        max_vel, min_vel = cfg.params["max_vel"], cfg.params["min_vel"]
+        self.max_scale = torch.tensor([max_vel.get(a, b) for a, b in zip(self.AXES, base)], device=env.device) / safe
+        # as AGILE, an axis without a max_vel keeps its configured range
+        self.min_scale = torch.tensor([min_vel.get(a, 0.0) if a in max_vel else b for a, b in zip(self.AXES, base)],
+                                      device=env.device) / safe
+        self.scale = torch.ones(6, device=env.device)
+        event.params["velocity_scale"] = self.scale
+
+    def __call__(self, env, env_mask, max_vel: dict[str, float], min_vel: dict[str, float],
+                 fall_ratio_thresholds: tuple[float, float], growth: float = 1.0001,
+                 event_name: str = "push_robot") -> torch.Tensor:
+        finished = env_mask.sum()
+        fallen = (env_mask & ~env.termination_manager.time_outs).sum()
+        ratio = fallen / finished.clamp(min=1)
+        grow = (finished > 0) & (ratio < min(fall_ratio_thresholds))
+        shrink = (finished > 0) & (ratio > max(fall_ratio_thresholds))
+        factor = torch.where(grow, growth, torch.where(shrink, 2.0 - growth, 1.0))
+        self.scale.copy_(torch.minimum(torch.maximum(self.scale * factor, self.min_scale), self.max_scale))
+        return self.base_mps[0] * self.scale[0]

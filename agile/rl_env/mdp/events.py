@@ -66,10 +66,14 @@ def reset_joints_by_scale(env, env_mask: torch.Tensor, position_range: tuple[flo
 
 
 def push_by_setting_velocity(env, env_mask: torch.Tensor, velocity_range: dict,
-                             asset_cfg: SceneEntityCfg = ROBOT) -> None:
-    """Add a uniform random velocity (x, y, z, roll, pitch, yaw; world frame) to the root."""
+                             asset_cfg: SceneEntityCfg = ROBOT, velocity_scale: torch.Tensor | None = None) -> None:
+    """Add a uniform random velocity (x, y, z, roll, pitch, yaw; world frame) to the root. `velocity_scale`, a
+    (6,) device tensor that a curriculum (`pushing_curriculum`) changes in place, scales each axis's draw."""
     robot = env.scene[asset_cfg.name]
-    velocity = robot.root_com_vel_w + _sample_ranges(velocity_range, env.num_envs, env.device)
+    push = _sample_ranges(velocity_range, env.num_envs, env.device)
+    if velocity_scale is not None:
+        push = push * velocity_scale
+    velocity = robot.root_com_vel_w + push
     robot.write_root_state(robot.root_pose_w, velocity, env_mask)
 
 

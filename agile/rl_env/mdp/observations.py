@@ -77,3 +77,22 @@ def height_scan(env, sensor_name: str, offset_m: float = 0.5,
     scanner = env.scene[sensor_name]
     scan = scanner.pos_w[:, 2:3] - scanner.hit_z_m - offset_m
     return scan.clamp(clip_m[0], clip_m[1])
+
+
+def base_height_from_sensor(env, sensor_name: str, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
+    """(N, 1) root height above the mean terrain height under the height scanner `sensor_name` [m] (AGILE's
+    `base_height_from_sensor`, and what its `base_height_from_command` reads off the command term)."""
+    return base_height_above_ground(env, asset_cfg, sensor_name).unsqueeze(1)
+
+
+def height_scan_feet(env, left_sensor_name: str, right_sensor_name: str) -> torch.Tensor:
+    """(N, 2R) the height of each foot above the terrain under each ray of its scanner [m]: the left foot's R
+    rays, then the right foot's, each in its scanner's grid order. Clip it in the ObsTerm (AGILE: ±1 m).
+
+    AGILE subtracts the hits from its ray caster's origin, 20 m above the foot, so every value clips to 1; here
+    the scan is relative to the foot, as its docstring says."""
+    scans = []
+    for name in (left_sensor_name, right_sensor_name):
+        scanner = env.scene[name]
+        scans.append(scanner.pos_w[:, 2:3] - scanner.hit_z_m)
+    return torch.cat(scans, dim=1)

@@ -69,6 +69,22 @@ def _sub_mirror(ids: list[int], perm: list[int], sign: list[float], what: str) -
     return partners, signs
 
 
+def feet_scan_mirror(left_offsets_b: torch.Tensor, right_offsets_b: torch.Tensor,
+                     what: str) -> tuple[list[int], list[float]]:
+    """Mirror of `height_scan_feet` (left rays, then right rays): the mirror of the left foot's ray at (x, y) in
+    its foot's yaw frame is the right foot's ray at (x, -y), and the other way round; heights keep their sign."""
+    num_left = left_offsets_b.shape[0]
+    perm = []
+    for offsets, partner_offsets, partner_start in ((left_offsets_b, right_offsets_b, num_left),
+                                                    (right_offsets_b, left_offsets_b, 0)):
+        reflected = offsets * torch.tensor([1.0, -1.0], device=offsets.device)
+        match = torch.norm(reflected.unsqueeze(1) - partner_offsets.unsqueeze(0), dim=-1).min(dim=1)
+        if (match.values > 1e-6).any():
+            raise ValueError(f"{what}: the two foot scanners' ray grids are not mirror images in y")
+        perm += [partner_start + k for k in match.indices.tolist()]
+    return perm, [1.0] * len(perm)
+
+
 class GroupMirror:
     """Permutation and signs mirroring the observation groups and the action of an env."""
 
@@ -107,6 +123,13 @@ class GroupMirror:
             return [0, 1, 2], PSEUDO_VECTOR
         if func is obs_terms.generated_commands and dim == 3:
             return [0, 1, 2], VELOCITY_COMMAND
+        if func is obs_terms.generated_commands and dim == 4:  # a velocity and base-height command
+            return [0, 1, 2, 3], [*VELOCITY_COMMAND, 1.0]
+        if func is obs_terms.base_height_from_sensor:
+            return [0], [1.0]
+        if func is obs_terms.height_scan_feet:
+            return feet_scan_mirror(env.scene[term.params["left_sensor_name"]].ray_offsets_b,
+                                    env.scene[term.params["right_sensor_name"]].ray_offsets_b, where)
         if func in (obs_terms.joint_pos, obs_terms.joint_pos_rel, obs_terms.joint_vel_rel):
             asset: SceneEntityCfg = term.params["asset_cfg"]
             ids = index_list(asset.joint_ids, env.scene[asset.name].num_joints)

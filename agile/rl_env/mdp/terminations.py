@@ -37,3 +37,17 @@ def illegal_ground_contact(env, force_threshold_n: float, min_height_m: float, s
     in_contact = (torch.norm(history, dim=-1).amax(dim=1) > force_threshold_n).any(dim=1)
     lowest_m = env.scene[asset_cfg.name].body_pose_w[:, asset_cfg.body_ids, 2].amin(dim=1)
     return in_contact & (lowest_m < min_height_m)
+
+
+def link_distance(env, min_distance_m: float, max_distance_m: float | None = None,
+                  asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
+    """The two selected bodies' origins are closer than min_distance_m or (if set) farther than max_distance_m
+    (AGILE: feet crossing or splitting, knees colliding)."""
+    pos = env.scene[asset_cfg.name].body_pose_w[:, asset_cfg.body_ids, :3]
+    if pos.shape[1] != 2:
+        raise ValueError(f"link_distance needs exactly two bodies, got {pos.shape[1]} for {asset_cfg.body_names}")
+    distance_m = torch.norm(pos[:, 0] - pos[:, 1], dim=1)
+    too_close = distance_m < min_distance_m
+    if max_distance_m is None:
+        return too_close
+    return too_close | (distance_m > max_distance_m)

@@ -65,6 +65,8 @@ class VelocityEventsCfg:
         func=mdp.randomize_actuator_gains, mode="startup",
         params={"stiffness_distribution_params": (0.9, 1.1), "damping_distribution_params": (0.8, 2.0),
                 "operation": "scale"})
+    upper_body_actuator_gains: EventTerm | None = None
+    """A second gain draw for other joints (AGILE's height task: the arms and waist), set by a task's builder."""
     joint_friction = EventTerm(
         func=mdp.randomize_joint_parameters, mode="startup",
         params={"friction_distribution_params": (0.0, 0.005), "operation": "abs"})
@@ -206,8 +208,9 @@ def velocity_curriculum_cfg(action_rate_final: float, action_rate_rate_final: fl
     return cfg
 
 
-RANDOMISATION_EVENTS = ("physics_material", "actuator_gains", "joint_friction", "joint_armature", "body_mass",
-                        "base_mass", "body_com", "base_com", "base_external_wrench", "extremities_external_wrench")
+RANDOMISATION_EVENTS = ("physics_material", "actuator_gains", "upper_body_actuator_gains", "joint_friction",
+                        "joint_armature", "body_mass", "base_mass", "body_com", "base_com", "base_external_wrench",
+                        "extremities_external_wrench")
 """The startup domain randomisation and the random wrenches of `VelocityEventsCfg` (pushes and resets stay)."""
 
 

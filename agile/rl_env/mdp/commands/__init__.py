@@ -1,4 +1,8 @@
 from agile.rl_env.mdp.commands.velocity_command import (UniformNullVelocityCommand, UniformNullVelocityCommandCfg,
                                                         VelocityRangesCfg)
+from agile.rl_env.mdp.commands.velocity_height_command import (UniformVelocityBaseHeightCommand,
+                                                               UniformVelocityBaseHeightCommandCfg,
+                                                               VelocityHeightRangesCfg)
 
-__all__ = ["UniformNullVelocityCommand", "UniformNullVelocityCommandCfg", "VelocityRangesCfg"]
+__all__ = ["UniformNullVelocityCommand", "UniformNullVelocityCommandCfg", "UniformVelocityBaseHeightCommand",
+           "UniformVelocityBaseHeightCommandCfg", "VelocityHeightRangesCfg", "VelocityRangesCfg"]
