@@ -9,6 +9,7 @@ import yaml
 
 from agile.tasks import debug  # noqa: F401  (registration side effect)
 from agile.tasks.locomotion import g1, t1  # noqa: F401  (registration side effect)
+from agile.tasks.locomotion_height import g1 as height_g1  # noqa: F401  (registration side effect)
 from agile.tasks import multi_agent  # noqa: F401  (registration side effect)
 from agile.utils.config import load_entry_point
 
@@ -46,8 +47,10 @@ PRETRAINED_CONDITIONS = PRETRAINED_DIR / "conditions.yaml"
 
 
 def pretrained_policy(task: str) -> Path | None:
-    """The policy shipped with agile for a task (agile/data/policy/<task>.pt), if there is one."""
-    path = PRETRAINED_DIR / f"{task}.pt"
+    """The policy shipped with agile for a task (agile/data/policy/<task>.pt, or the file of the task its
+    registration names as `shipped_policy`: two IDs of one task share one policy), if there is one."""
+    name = task_spec(task).kwargs.get("shipped_policy", task)
+    path = PRETRAINED_DIR / f"{name}.pt"
     return path if path.is_file() else None
 
 

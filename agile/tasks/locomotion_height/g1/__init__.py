@@ -5,6 +5,7 @@ import gymnasium as gym
 
 ENV_CFGS = f"{__name__}.velocity_height_env_cfg"
 AGENT_CFGS = f"{__name__}.agents.rsl_rl_cfg"
+TEACHER_ENV_CFG = "G1VelocityHeightTeacherEnvCfg"
 TASKS = {  # id: (env cfg class, runner cfg function)
     "Velocity-Height-G1-v0": ("G1VelocityHeightTeacherEnvCfg", "g1_velocity_height_teacher_ppo_runner_cfg"),
     "Velocity-Height-G1-Teacher-v0": ("G1VelocityHeightTeacherEnvCfg", "g1_velocity_height_teacher_ppo_runner_cfg"),
@@ -22,5 +23,7 @@ for task_id, (env_cfg, runner_cfg) in TASKS.items():
         disable_env_checker=True,
         order_enforce=False,
         kwargs={"task_name": task_id, "env_cfg_entry_point": f"{ENV_CFGS}:{env_cfg}",
-                "rsl_rl_cfg_entry_point": f"{AGENT_CFGS}:{runner_cfg}"},
+                "rsl_rl_cfg_entry_point": f"{AGENT_CFGS}:{runner_cfg}",
+                # the teacher's two IDs share the policy shipped as Velocity-Height-G1-Teacher-v0.pt
+                "shipped_policy": "Velocity-Height-G1-Teacher-v0" if env_cfg == TEACHER_ENV_CFG else task_id},
     )

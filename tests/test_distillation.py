@@ -1,0 +1,85 @@
+"""Teacher-student distillation as a user runs it (CPU, 2 envs): a teacher trained by PPO for one iteration,
+each student distilled from it for one iteration, from its TorchScript export or its checkpoint, and the
+exported student acting as the trained one."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "scripts"))
+
+TEACHER = "Velocity-Height-G1-Teacher-v0"
+STUDENTS = {"Velocity-Height-G1-Student-Recurrent-v0": "velocity_height_g1_student_recurrent",
+            "Velocity-Height-G1-Student-History-v0": "velocity_height_g1_student_history"}
+SHORT = ["--num_envs", "2", "--max_iterations", "1", "--device", "cpu", "agent.num_steps_per_env=15"]
+
+
+def run(*args):
+    result = subprocess.run([sys.executable, *args], cwd=ROOT, capture_output=True, text=True, timeout=900)
+    return result.returncode, result.stdout + result.stderr
+
+
+@pytest.fixture(scope="module")
+def teacher_run(tmp_path_factory) -> Path:
+    log_root = tmp_path_factory.mktemp("teacher")
+    code, out = run("scripts/train.py", "--task", TEACHER, "--log_root", str(log_root), *SHORT)
+    assert code == 0, out
+    return next((log_root / "velocity_height_g1_teacher").iterdir())
+
+
+@pytest.mark.parametrize("student", sorted(STUDENTS))
+def test_one_distillation_iteration_and_its_export(student, teacher_run, tmp_path):
+    code, out = run("scripts/train.py", "--task", student, "--log_root", str(tmp_path),
+                    "--teacher", str(teacher_run / "exported" / "policy.pt"), *SHORT)
+    assert code == 0, out
+    assert "Mean behavior loss:" in out, out
+    run_dir = next((tmp_path / STUDENTS[student]).iterdir())
+    checkpoint = torch.load(run_dir / "model_0.pt", weights_only=True)
+    # the TorchScript teacher's weights are the PPO actor's
+    actor = torch.load(teacher_run / "model_0.pt", weights_only=True)["actor_state_dict"]
+    for key, value in checkpoint["teacher_state_dict"].items():
+        if not key.startswith("distribution."):
+            torch.testing.assert_close(value, actor[key], rtol=0.0, atol=0.0)
+    if student.endswith("History-v0"):
+        assert "Mean mirror loss:" in out, out  # the mirror loss is logged
+    # the exported student acts as the trained one, hidden state included, over several steps
+    descriptor = yaml.safe_load((run_dir / "exported" / "io_descriptor.yaml").read_text())
+    assert descriptor["observation_groups"] == ["policy"]
+    assert [a["name"] for a in descriptor["actions"]] == ["joint_pos"]  # no harness, no random arms
+    assert descriptor["policy"]["recurrent"] == student.endswith("Recurrent-v0")
+    exported = torch.jit.load(str(run_dir / "exported" / "policy.pt"))
+    from agile.rl_env.rsl_rl import policy_obs_set
+    from utils import cli
+    from utils.policy import load_runner
+
+    import agile.tasks
+
+    env_cfg, agent_cfg = agile.tasks.load_cfgs(student)
+    env_cfg.num_envs = 1
+    env = cli.make_env(student, env_cfg, "cpu")
+    student_policy = load_runner(checkpoint, env, agent_cfg).get_inference_policy(device="cpu")
+    assert policy_obs_set(agent_cfg) == "student"
+    exported.reset()
+    from agile.rl_env.rsl_rl import flatten_groups
+
+    obs, _ = env.reset()
+    with torch.inference_mode():
+        for _ in range(5):
+            flat = flatten_groups(obs)
+            expected = student_policy(flat)
+            torch.testing.assert_close(exported(flat["policy"]), expected, rtol=0.0, atol=1e-5)
+            obs, *_ = env.step(expected)
+    env.close()
+
+
+def test_a_student_without_a_teacher_is_refused_in_one_line(tmp_path):
+    code, out = run("scripts/train.py", "--task", "Velocity-Height-G1-Student-History-v0", "--log_root",
+                    str(tmp_path), "--teacher", str(tmp_path / "missing.pt"), *SHORT)
+    assert code == 2 and "--teacher file not found" in out, out
+    code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--teacher", "x.pt", *SHORT)
+    assert code == 2 and "trained by PPO" in out, out
