@@ -121,6 +121,9 @@ def main(argv=None) -> None:
                         "iterations into <log dir>/videos (a separate 1-env world, rendered headless)")
     parser.add_argument("--video_interval", type=int, default=500, help="iterations between clips")
     parser.add_argument("--video_length", type=int, default=200, help="env steps per clip")
+    parser.add_argument("--inject_nan_actions", type=float, nargs=2, default=None, metavar=("SHARE", "EVERY"),
+                        help="reliability runs: NaN actions for a SHARE of the envs (e.g. 0.01) at the start of every "
+                        "EVERY-th iteration; the env ends and counts them (Episode_Termination/invalid_action)")
     parser.add_argument("--teacher", default=None, metavar="PATH",
                         help="distillation tasks: the teacher, a PPO checkpoint of the teacher task or its TorchScript "
                         "export (default: the policy agile ships for the teacher task)")
@@ -160,6 +163,11 @@ def main(argv=None) -> None:
                  "(a new run's initial std is agent.actor.distribution_cfg.init_std)")
     init_contents = cli.read_checkpoint(args.init_policy, args.trust_checkpoint) if args.init_policy else None
     teacher_path = distillation_teacher(args, agent_cfg, resuming=resume_path is not None)
+    if args.inject_nan_actions is not None:
+        share, every = args.inject_nan_actions
+        if not (0.0 < share <= 1.0 and every >= 1 and every == int(every)):
+            cli.fail(f"--inject_nan_actions SHARE EVERY: SHARE within (0, 1], EVERY a whole number >= 1; got "
+                     f"{share:g} {every:g}")
 
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
     from agile.rl_env.rsl_rl.checkpoints import restore_runner, runner_class
@@ -170,7 +178,13 @@ def main(argv=None) -> None:
           f"obs {env.observation_manager.group_dims}, actions {env.action_manager.total_action_dim}")
     log_dir = cli.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
     cli.dump_configs(log_dir, env_cfg, agent_cfg)
-    wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
+    if args.inject_nan_actions is None:
+        wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
+    else:
+        from agile.rl_env.rsl_rl.fault_injection import NanActionVecEnv
+
+        share, every = args.inject_nan_actions
+        wrapped = NanActionVecEnv(env, agent_cfg.clip_actions, share, int(every), agent_cfg.num_steps_per_env)
     with cli.quiet_stdout():
         runner = runner_class(agent_cfg)(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
     runner.logger.git_status_repos = cli.git_repos()
