@@ -8,7 +8,8 @@ from rsl_rl.runners import OnPolicyRunner
 import agile.tasks
 from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 
-SMOKE_TASKS = ["Velocity-T1-v0", "Velocity-G1-History-v0", "Debug-G1-v0", "Debug-T1-v0", "Debug-G1-Object-v0"]
+SMOKE_TASKS = ["Velocity-T1-v0", "Velocity-G1-History-v0", "Velocity-G1-Teacher-v0", "Debug-G1-v0", "Debug-T1-v0",
+               "Debug-G1-Object-v0"]
 MULTI_AGENT_SMOKE_TASKS = ["MultiRate-G1-T1-Velocity-v0"]
 SKIPPED_TASKS: dict[str, str] = {}  # task ID -> reason
 

@@ -229,6 +229,8 @@ def test_velocity_tracking_in_the_yaw_frame():
     weight = 1.0 + (0.3 - 0.01) / (math.hypot(0.5, 0.5) - 0.01)
     value = mdp.track_lin_vel_xy_yaw_frame_exp_weighted(env, std=0.2, command_name="c", asset_cfg=_entity(env))
     assert value.tolist() == pytest.approx([weight, math.exp(-0.09 / 0.04)], rel=1e-5)
+    value = mdp.track_lin_vel_xy_yaw_frame_exp(env, std=0.5, command_name="c", asset_cfg=_entity(env))
+    assert value.tolist() == pytest.approx([1.0, math.exp(-0.09 / 0.25)], rel=1e-5)
     env.robot.root_ang_vel_w[:, 2] = 0.3
     value = mdp.track_ang_vel_z_world_exp(env, std=0.2, command_name="c", asset_cfg=_entity(env))
     assert value.tolist() == pytest.approx([math.exp(-0.04 / 0.04), math.exp(-0.09 / 0.04)], rel=1e-5)
@@ -255,6 +257,8 @@ def test_null_command_rewards():
     value = mdp.no_undesired_base_velocity_exp_if_null_cmd(env, std=0.1, command_name="c", asset_cfg=_entity(env))
     assert value.tolist() == pytest.approx([math.exp(-(0.1 * 0.04 + 0.02) / 0.01), math.exp(-(0.04 + 0.02) / 0.01)],
                                            rel=1e-5)
+    value = mdp.no_undesired_base_velocity_exp(env, std=0.1, asset_cfg=_entity(env))  # whatever the command
+    assert value.tolist() == pytest.approx([math.exp(-(0.04 + 0.02) / 0.01)] * 2, rel=1e-5)
     env.scene["contact"] = _ContactSensor(torch.tensor([[100.0, 300.0], [100.0, 300.0]]))
     feet = SceneEntityCfg("contact", body_names=".*")
     feet.body_ids = slice(None)

@@ -31,6 +31,14 @@ def _lin_vel_yaw_frame(robot) -> torch.Tensor:
 
 # -- tracking ------------------------------------------------------------------------------------------
 
+def track_lin_vel_xy_yaw_frame_exp(env, std: float, command_name: str,
+                                   asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
+    """exp(-|v_cmd,xy - v_xy|² / std²), v the root velocity in the yaw frame (heading, gravity-aligned)."""
+    command_xy = env.command_manager.get_command(command_name)[:, :2]
+    error = torch.sum(torch.square(command_xy - _lin_vel_yaw_frame(env.scene[asset_cfg.name])), dim=1)
+    return torch.exp(-error / std**2)
+
+
 def track_lin_vel_xy_yaw_frame_exp_weighted(env, std: float, command_name: str,
                                             asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
     """w · exp(-|v_cmd,xy - v_xy|² / std²), v in the yaw frame; w rises linearly from 1 at a commanded speed of
@@ -73,6 +81,13 @@ def base_height_in_threshold(env, threshold_m: float, command_name: str, sensor_
 
 NULL_COMMAND_LIN_VEL_Z_WEIGHT = 0.1
 """AGILE: a robot told to stand still may move vertically (crouch, rise) at a tenth of the cost."""
+
+
+def no_undesired_base_velocity_exp(env, std: float, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
+    """exp(-(v_z² + ω_x² + ω_y²) / std²), root frame: no bouncing, rolling or pitching."""
+    robot = env.scene[asset_cfg.name]
+    cost = torch.square(robot.root_lin_vel_b[:, 2]) + torch.sum(torch.square(robot.root_ang_vel_b[:, :2]), dim=1)
+    return torch.exp(-cost / std**2)
 
 
 def no_undesired_base_velocity_exp_if_null_cmd(env, std: float, command_name: str,

@@ -49,10 +49,11 @@ def foot_height_scanner_cfg(foot_body: str) -> HeightScannerCfg:
                             resolution_m=0.05)
 
 
-def velocity_height_scene_cfg() -> SceneCfg:
-    """The G1 (armature-derived gains, delayed implicit PD on legs and feet) on the less-rough terrain, a contact
-    sensor on the feet and on every body whose contact ends an episode, the base-height ray and the foot scans."""
-    scene = velocity_scene_cfg(g1_robot_cfg("armature_delayed_implicit"), LESS_ROUGH_TERRAIN_CFG, base_body="pelvis",
+def velocity_height_scene_cfg(actuators: str = "armature_delayed_implicit") -> SceneCfg:
+    """The G1 (FEB26 teacher: armature-derived gains, delayed implicit PD on legs and feet) on the less-rough
+    terrain, a contact sensor on the feet and on every body whose contact ends an episode, the base-height ray
+    and the foot scans."""
+    scene = velocity_scene_cfg(g1_robot_cfg(actuators), LESS_ROUGH_TERRAIN_CFG, base_body="pelvis",
                                sensed_bodies=[*TRUNK_CONTACT_BODIES, *FOOT_BODIES])
     scene.ground_friction = 0.4  # the bottom of this task's robot friction range (see velocity_scene_cfg)
     scene.height_scanners[LEFT_FOOT_SCANNER] = foot_height_scanner_cfg(FOOT_BODIES[0])
