@@ -381,3 +381,18 @@ def test_students_see_the_teachers_policy_group_and_have_no_harness(student, tea
     history = 5 if "History" in student else 1
     assert obs["policy"]["projected_gravity"].shape == (2, 3 * history)
     env.close()
+
+
+def test_random_upper_body_targets_return_to_default_while_walking():
+    torch.manual_seed(0)
+    env = FakeEnv(num_envs=2)
+    env.step_dt = 0.02
+    env.command_manager = _CommandTerm(torch.tensor([[0.3, 0.0, 0.0, 0.72], [0.0, 0.0, 0.0, 0.5]]))  # walk, stand
+    env.robot.default_joint_pos[:] = 0.2
+    cfg = mdp.RandomActionCfg(joint_names=[".*"], sample_range_s=(0.02, 0.02), no_random_when_walking=True,
+                              command_name="c")
+    term = mdp.RandomPositionAction(cfg, env)
+    for _ in range(200):  # many short motions, each to a new target once the last one is done
+        term.process_actions(torch.zeros(2, 0))
+        assert torch.allclose(term.processed_actions[0], torch.full((3,), 0.2))
+    assert not torch.allclose(term.processed_actions[1], torch.full((3,), 0.2))

@@ -119,7 +119,7 @@ class RandomPositionAction(ActionTerm):
         if cfg.joint_names is not None:
             joint_ids, self.joint_names = robot.find_joints(cfg.joint_names)
         else:
-            excluded, _ = robot.find_joints(cfg.joint_names_exclude)
+            excluded = robot.find_joints(cfg.joint_names_exclude)[0] if cfg.joint_names_exclude else []
             joint_ids = [i for i in range(robot.num_joints) if i not in excluded]
             self.joint_names = [robot.joint_names[i] for i in joint_ids]
         if not joint_ids:
@@ -151,6 +151,10 @@ class RandomPositionAction(ActionTerm):
         resample = (self.time_left_s <= 0.0) & self.profile.done
         low, high = self.pos_limits[..., 0], self.pos_limits[..., 1]
         target = torch.rand_like(low) * (high - low) + low
+        if self.cfg.no_random_when_walking:
+            # AGILE: an env told to walk moves these joints back to their defaults (after the running motion)
+            walking = (self.env.command_manager.get_command(self.cfg.command_name)[:, :3] != 0.0).any(dim=1)
+            target = torch.where(walking.unsqueeze(-1), self.offset, target)
         self.profile.plan(self.processed_actions, target, resample)
         self.time_left_s.copy_(torch.where(resample, self._sample_interval(), self.time_left_s))
         self.profile.advance(step_dt_s)
@@ -179,3 +183,6 @@ class RandomActionCfg:
     velocity_profile_cfg: TrapezoidalVelocityProfileCfg = TrapezoidalVelocityProfileCfg()
     joint_pos_limits: dict[str, tuple[float, float]] = field(default_factory=dict)
     """{joint regex: (low, high)} [rad] replacing the model's limits for target sampling."""
+    no_random_when_walking: bool = False
+    """Targets are the default positions while the velocity command `command_name` is not zero."""
+    command_name: str = "base_velocity"

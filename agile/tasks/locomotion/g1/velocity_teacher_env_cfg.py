@@ -9,6 +9,7 @@ robot rarely falls (`pushing_curriculum`), and reward weights that ramp up from 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 from agile.assets.unitree_g1 import LOWER_BODY_JOINTS
@@ -39,10 +40,10 @@ class CommandsCfg:
 
 
 def random_arms_and_waist_yaw_action_cfg() -> mdp.RandomActionCfg:
-    """AGILE: every joint but the legs and waist roll and pitch moves to random targets every 0.1-1.5 s."""
+    """AGILE: every joint but the legs and waist roll and pitch moves to random targets every 0.1-1.5 s while the
+    robot stands, back to its default while it walks."""
     cfg = random_upper_body_action_cfg(excluded_joints=[*LOWER_BODY_JOINTS, "waist_roll_joint", "waist_pitch_joint"])
-    cfg.sample_range_s = (0.1, 1.5)
-    return cfg
+    return dataclasses.replace(cfg, sample_range_s=(0.1, 1.5), no_random_when_walking=True, command_name=COMMAND)
 
 
 @configclass

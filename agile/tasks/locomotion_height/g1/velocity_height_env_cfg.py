@@ -75,10 +75,11 @@ class CommandsCfg:
 # -- actions -------------------------------------------------------------------------------------------
 
 def random_waist_and_arms_action_cfg() -> mdp.RandomActionCfg:
-    """AGILE `random_upper_body_pos`: arms and waist yaw (±15°) move to random targets; waist roll and pitch
-    stay at 0."""
+    """AGILE `random_upper_body_pos`: arms and waist yaw (±15°) move to random targets while the robot stands
+    (back to their defaults while it walks); waist roll and pitch stay at 0."""
     return mdp.RandomActionCfg(
-        joint_names_exclude=LOWER_BODY_JOINTS, sample_range_s=(0.1, 2.0),
+        joint_names_exclude=LOWER_BODY_JOINTS, sample_range_s=(0.1, 2.0), no_random_when_walking=True,
+        command_name=COMMAND,
         joint_pos_limits={"waist_roll_joint": (0.0, 0.0), "waist_pitch_joint": (0.0, 0.0),
                           "waist_yaw_joint": (-math.radians(15.0), math.radians(15.0))},
         velocity_profile_cfg=mdp.TrapezoidalVelocityProfileCfg(
