@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import torch
 
 from agile.rl_env.managers.manager_base import build_class_terms
@@ -27,6 +29,11 @@ class ActionTerm:
 
     def reset(self, env_mask: torch.Tensor) -> None:
         pass
+
+    def action_bounds(self) -> tuple[torch.Tensor, torch.Tensor] | None:
+        """(low, high), each (num_envs, action_dim): the actions beyond which the term's effect no longer changes
+        (it clips them anyway); None: the term declares no such range."""
+        return None
 
     def link(self, terms: dict[str, ActionTerm]) -> None:
         """Called once all terms are built, with every term by name: a term that reads another term (a
@@ -71,6 +78,21 @@ class ActionManager:
             raise ValueError(f"the policy's action terms drive {len(names)} entities {names}; exports and symmetry "
                              f"need exactly one")
         return names[0]
+
+    def action_bounds(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """(low, high), each (num_envs, total_action_dim): per entry, the range the task declares through its
+        terms' clips (±inf where a term declares none). The RSL-RL wrapper clamps the policy's actions to it,
+        which changes no target, only what the action history and the action-rate rewards see."""
+        lows, highs = [], []
+        for term in self.terms.values():
+            bounds = term.action_bounds()
+            if bounds is None:
+                shape = (self.env.num_envs, term.action_dim)
+                bounds = (torch.full(shape, -math.inf, device=self.env.device),
+                          torch.full(shape, math.inf, device=self.env.device))
+            lows.append(bounds[0])
+            highs.append(bounds[1])
+        return torch.cat(lows, dim=-1), torch.cat(highs, dim=-1)
 
     def process_action(self, action: torch.Tensor) -> None:
         if action.shape != self.action.shape:
