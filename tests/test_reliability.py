@@ -123,6 +123,7 @@ def test_a_corrupted_terrain_cache_is_rebuilt_and_a_bad_terrain_is_never_written
 
 @pytest.mark.parametrize("override, message", [
     ("decimation=0", "decimation must be a whole number >= 1"),
+    ("decimation=-1", "decimation must be a whole number >= 1"),  # ran with every step a time-out
     ("sim.physics_dt_s=0.0", "sim.physics_dt_s must be positive"),
     ("episode_length_s=-5.0", "episode_length_s must be positive"),
     ("observations.policy.history_length=-1", "observations.policy.history_length must be >= 0"),
@@ -132,6 +133,11 @@ def test_a_corrupted_terrain_cache_is_rebuilt_and_a_bad_terrain_is_never_written
     ("commands.base_velocity.rel_standing_envs=1.5", "rel_standing_envs is a share"),
     ("rewards.track_lin_vel_xy_exp.params.std=0.0", "'track_lin_vel_xy_exp', param 'std'.*must be positive"),
     ("events.push_robot.interval_range_s=(5.0, 2.0)", "'push_robot'.*interval_range_s must be ordered"),
+    # before: "joint regex '.*' matches no joint", a regex the user never wrote
+    ("actions.joint_pos.joint_names=[]", "action term 'joint_pos': no joint of 'robot' regex given"),
+    ("events.push_robot.params.velocity_range={'x': (0.5, -0.5)}",
+     "'push_robot', param 'velocity_range\\['x'\\]'.*ordered"),
+    ("sim.solver.njmax=0", "sim.solver.njmax must be positive"),  # MuJoCo printed an overflow every step
 ])
 def test_a_value_outside_its_domain_is_named_at_build(override, message):
     with pytest.raises(ConfigError, match=message):

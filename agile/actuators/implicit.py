@@ -24,3 +24,21 @@ class ImplicitActuatorCfg:
     velocity_limit: JointValue | None = None  # [rad/s], used by limit rewards (MuJoCo has no joint speed limit)
     armature: JointValue | None = None  # [kg·m²]
     friction: JointValue | None = None  # joint dry friction [N·m]
+
+
+NON_NEGATIVE_FIELDS = ("stiffness", "damping", "armature", "friction")
+POSITIVE_FIELDS = ("effort_limit", "velocity_limit", "saturation_effort")
+"""A limit of 0 leaves a joint no torque range (MuJoCo refuses it) or divides (the DC motor's speed line)."""
+
+
+def check_actuator_values(cfg: ImplicitActuatorCfg) -> None:
+    """Raise ValueError naming the field (and the joint regex of a per-joint value) outside its domain: gains,
+    armature and friction >= 0 (a negative armature makes the mass matrix indefinite), limits > 0."""
+    for name in NON_NEGATIVE_FIELDS + POSITIVE_FIELDS:
+        value = getattr(cfg, name, None)
+        items = value.items() if isinstance(value, dict) else [] if value is None else [(None, value)]
+        for key, v in items:
+            ok = v > 0 if name in POSITIVE_FIELDS else v >= 0
+            if not ok:
+                where = name if key is None else f"{name}[{key!r}]"
+                raise ValueError(f"{where} must be {'positive' if name in POSITIVE_FIELDS else '>= 0'}, got {v}")

@@ -114,6 +114,9 @@ def check_timing(cfg, task_name: str) -> None:
         raise ConfigError(f"task '{task_name}': episode_length_s must be positive, got {cfg.episode_length_s}")
     if not cfg.sim.physics_dt_s > 0:
         raise ConfigError(f"task '{task_name}': sim.physics_dt_s must be positive, got {cfg.sim.physics_dt_s}")
+    if not cfg.max_joint_speed_rad_s > 0:  # else every step of every env would count as unstable
+        raise ConfigError(f"task '{task_name}': max_joint_speed_rad_s must be positive, "
+                          f"got {cfg.max_joint_speed_rad_s}")
 
 
 def build_managers(env, cfg) -> None:

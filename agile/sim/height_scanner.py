@@ -45,8 +45,10 @@ class TerrainHeights:
 
 def grid_pattern(size_m: tuple[float, float], resolution_m: float, device) -> torch.Tensor:
     """(R, 2) ray offsets, Isaac Lab's GridPattern order (x fastest); (0, 0) gives one ray."""
-    if resolution_m <= 0.0:
+    if not resolution_m > 0.0:
         raise ValueError(f"height scanner resolution_m must be > 0, got {resolution_m}")
+    if not (size_m[0] >= 0.0 and size_m[1] >= 0.0):
+        raise ValueError(f"height scanner size_m must be >= 0 along x and y, got {tuple(size_m)}")
     xs = torch.arange(-size_m[0] / 2, size_m[0] / 2 + 1e-9, resolution_m, device=device)
     ys = torch.arange(-size_m[1] / 2, size_m[1] / 2 + 1e-9, resolution_m, device=device)
     grid_x, grid_y = torch.meshgrid(xs, ys, indexing="xy")

@@ -15,6 +15,8 @@ def resolve_names(exprs: str | Sequence[str], names: Sequence[str], what: str = 
     """
     if isinstance(exprs, str):
         exprs = [exprs]
+    if not exprs:  # else the term would select nothing and fail later on something it derives from it
+        raise ValueError(f"no {what} regex given: an empty list selects nothing; give at least one ('.*' selects all)")
     matched: dict[int, int] = {}
     for e_idx, expr in enumerate(exprs):
         try:

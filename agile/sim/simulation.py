@@ -19,7 +19,7 @@ from agile.sim.scene import Scene, build_world_template, entity_of, filter_shape
 from agile.sim.scene_cfg import SceneCfg
 from agile.sim.sim_cfg import SimCfg
 from agile.sim.terrain import TerrainData, load_or_generate_terrain
-from agile.utils.config import ConfigError
+from agile.utils.config import ConfigError, domain_problems
 
 def env_origins_grid(num_envs: int, spacing_m: float, device) -> torch.Tensor:
     """(N, 3) origins on a square grid centred on the world origin."""
@@ -39,12 +39,24 @@ def terrain_heightfield(terrain: TerrainData) -> newton.Heightfield:
     return newton.Heightfield(data=terrain.heights_m.T, nrow=ny, ncol=nx, hx=(nx - 1) * h / 2, hy=(ny - 1) * h / 2)
 
 
+def check_physics_cfg(cfg: SimCfg, scene_cfg: SceneCfg) -> None:
+    """Solver budgets and iterations of 0 run a world without contacts or constraint solving (MuJoCo prints an
+    overflow every step instead of failing); MuJoCo warns that a friction of 0 may give NaN."""
+    problems = [f"sim.solver.{p}" for p in domain_problems(
+        cfg.solver, positive=("iterations", "ls_iterations", "njmax", "nconmax", "impratio"))]
+    problems += [f"scene.{p}" for p in domain_problems(scene_cfg, positive=("ground_friction",),
+                                                       non_negative=("terrain_contact_gap_m",))]
+    if problems:
+        raise ConfigError("; ".join(problems))
+
+
 class Simulation:
     """Builds the replicated world and steps it; the decimation loop is one captured graph."""
 
     def __init__(self, cfg: SimCfg, scene_cfg: SceneCfg, num_envs: int, device: str, step_dt_s: float):
         if num_envs < 1:
             raise ValueError(f"num_envs must be >= 1, got {num_envs}")
+        check_physics_cfg(cfg, scene_cfg)
         self.cfg = cfg
         self.scene_cfg = scene_cfg
         self.num_envs = num_envs

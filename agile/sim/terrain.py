@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agile.utils.config import ConfigError, configclass, to_dict
+from agile.utils.config import ConfigError, configclass, domain_problems, to_dict
 from agile.utils.files import warn_if_untrusted_folder
 
 CACHE_VERSION = 2
@@ -50,6 +50,10 @@ class SubTerrainCfg:
     """Share of the columns (curriculum) or of the cells (random layout) of this type."""
     border_width_m: float = 0.0
     """Flat ring at height 0 along the cell edge."""
+
+    def problems(self) -> list[str]:
+        """Fields outside their domain, each message naming the field (checked before anything is generated)."""
+        return domain_problems(self, non_negative=("proportion", "border_width_m"))
 
     def _inside(self, x_m: np.ndarray, y_m: np.ndarray, size_m: float) -> np.ndarray:
         half = size_m / 2 - self.border_width_m
@@ -76,6 +80,11 @@ class RandomUniformTerrainCfg(SubTerrainCfg):
     """Distance between drawn heights (Isaac Lab's `downsampled_scale`); None: every sample. AGILE's rough
     presets draw every 0.4 m (their height-field spacing); drawn every 0.1 m the same heights make 4x steeper
     bumps."""
+
+    def problems(self) -> list[str]:
+        # a zero step would make the list of height levels endless
+        return super().problems() + domain_problems(self, positive=("min_step_m", "sample_spacing_m"),
+                                                    non_negative=("noise_step_m",), ordered=("noise_range_m",))
 
     def heights(self, difficulty, x_m, y_m, size_m, rng):
         low, high = self.noise_range_m[0] * difficulty, self.noise_range_m[1] * difficulty
@@ -108,6 +117,14 @@ class BoxGridTerrainCfg(SubTerrainCfg):
     grid_height_range_m: tuple[float, float] = (0.05, 0.2)
     platform_width_m: float = 2.0
 
+    def problems(self) -> list[str]:
+        problems = super().problems() + domain_problems(self, positive=("grid_width_m",),
+                                                        non_negative=("platform_width_m",),
+                                                        ordered=("grid_height_range_m",))
+        if self.grid_height_range_m[0] < 0:  # the half-height of a uniform draw in [-h, h]
+            problems.append(f"grid_height_range_m must be >= 0, got {tuple(self.grid_height_range_m)}")
+        return problems
+
     def heights(self, difficulty, x_m, y_m, size_m, rng):
         h = _lerp(self.grid_height_range_m, difficulty)
         blocks = math.ceil(size_m / self.grid_width_m)
@@ -127,6 +144,9 @@ class WaveTerrainCfg(SubTerrainCfg):
     amplitude_range_m: tuple[float, float] = (0.0, 0.2)
     num_waves: int = 1
 
+    def problems(self) -> list[str]:
+        return super().problems() + domain_problems(self, ordered=("amplitude_range_m",))
+
     def heights(self, difficulty, x_m, y_m, size_m, rng):
         amplitude = _lerp(self.amplitude_range_m, difficulty)
         k = 2 * math.pi * self.num_waves / size_m
@@ -142,6 +162,9 @@ class PyramidSlopeTerrainCfg(SubTerrainCfg):
     slope_range: tuple[float, float] = (0.0, 0.4)
     platform_width_m: float = 2.0
     inverted: bool = False
+
+    def problems(self) -> list[str]:
+        return super().problems() + domain_problems(self, non_negative=("platform_width_m",), ordered=("slope_range",))
 
     def heights(self, difficulty, x_m, y_m, size_m, rng):
         slope = _lerp(self.slope_range, difficulty)
@@ -160,6 +183,10 @@ class PyramidStairsTerrainCfg(SubTerrainCfg):
     step_width_m: float = 0.3
     platform_width_m: float = 3.0
     inverted: bool = False
+
+    def problems(self) -> list[str]:
+        return super().problems() + domain_problems(self, positive=("step_width_m",),
+                                                    non_negative=("platform_width_m",), ordered=("step_height_range_m",))
 
     def num_steps(self, size_m: float) -> int:
         return int((size_m - 2 * self.border_width_m - self.platform_width_m) // (2 * self.step_width_m))
@@ -307,11 +334,18 @@ def check_terrain_cfg(cfg: TerrainGeneratorCfg) -> None:
     for name in ("size_m", "horizontal_scale_m"):
         if not getattr(cfg, name) > 0:
             problems.append(f"{name} must be positive, got {getattr(cfg, name)}")
-    if cfg.border_width_m < 0:
-        problems.append(f"border_width_m must be >= 0, got {cfg.border_width_m}")
+    for name in ("border_width_m", "seed"):
+        if getattr(cfg, name) < 0:
+            problems.append(f"{name} must be >= 0, got {getattr(cfg, name)}")
+    h = cfg.horizontal_scale_m
+    if cfg.size_m > 0 and h > 0 and not math.isclose(round(cfg.size_m / h) * h, cfg.size_m, rel_tol=1e-6):
+        problems.append(f"size_m {cfg.size_m} must be a multiple of horizontal_scale_m {h} (a cell is a whole "
+                        f"number of samples)")
     low, high = cfg.difficulty_range
     if not 0.0 <= low <= high <= 1.0:
         problems.append(f"difficulty_range must be ordered within [0, 1], got {cfg.difficulty_range}")
+    for name, sub_terrain in cfg.sub_terrains.items():
+        problems += [f"sub_terrains.{name}.{problem}" for problem in sub_terrain.problems()]
     if not cfg.sub_terrains or sum(t.proportion for t in cfg.sub_terrains.values()) <= 0:
         problems.append("sub_terrains need a positive total proportion")
     if problems:

@@ -178,3 +178,23 @@ def check_range(name: str, value, minimum: float | None = None, maximum: float |
         raise ValueError(f"{name} must be ordered (low <= high), got {tuple(value)}")
     if (minimum is not None and low < minimum) or (maximum is not None and high > maximum):
         raise ValueError(f"{name} must lie within [{minimum}, {maximum}], got {tuple(value)}")
+
+
+def domain_problems(cfg, positive: tuple[str, ...] = (), non_negative: tuple[str, ...] = (),
+                    ordered: tuple[str, ...] = ()) -> list[str]:
+    """'<field> must be ..., got <value>' for each named field of `cfg` outside its domain: positive, >= 0, or an
+    ordered (low, high) pair. A field set to None (unset, or "every sample") is skipped."""
+    problems = []
+    for name in positive:
+        value = getattr(cfg, name)
+        if value is not None and not value > 0:
+            problems.append(f"{name} must be positive, got {value}")
+    for name in non_negative:
+        value = getattr(cfg, name)
+        if value is not None and not value >= 0:
+            problems.append(f"{name} must be >= 0, got {value}")
+    for name in ordered:
+        value = getattr(cfg, name)
+        if value is not None and not value[0] <= value[1]:
+            problems.append(f"{name} must be ordered (low <= high), got {tuple(value)}")
+    return problems

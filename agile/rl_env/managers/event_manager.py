@@ -47,7 +47,13 @@ class EventManager:
                 time_left.copy_(torch.where(mask, self._sample_interval(cfg, self.env.num_envs), time_left))
             else:
                 mask = env_mask
-            self.funcs[name](self.env, mask, **cfg.params)
+            if mode != "startup":
+                self.funcs[name](self.env, mask, **cfg.params)
+                continue
+            try:  # the first call of a startup term is where it finds a param outside its domain
+                self.funcs[name](self.env, mask, **cfg.params)
+            except ValueError as err:
+                raise ConfigError(f"task '{self.env.task_name}', event term '{name}': {err}") from None
 
     def reset(self, env_mask: torch.Tensor) -> dict:
         for func in self.funcs.values():

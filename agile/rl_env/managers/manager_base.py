@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import inspect
+import re
 
 from agile.rl_env.managers.term_cfg import ManagerTermBase, SceneEntityCfg
 from agile.utils.config import ConfigError, callable_name
@@ -20,6 +21,22 @@ def collect_terms(cfg, term_type) -> dict:
         if isinstance(value, term_type):
             terms[f.name] = value
     return terms
+
+
+RANGE_PARAM = re.compile(r"_range(_[a-z0-9]+)?$|_distribution_params$")
+"""Param names of ranges: `*_range`, `*_range_<unit>`, `*_distribution_params`."""
+
+
+def range_params(key: str, value) -> list[tuple[str, tuple]]:
+    """(label, (low, high)) of a param that is a range by its name: a pair, or pairs per axis
+    ({"x": (low, high), ...}). Terms draw uniformly between the ends, so an inverted range would silently
+    draw outside what it says."""
+    if not RANGE_PARAM.search(key):
+        return []
+    pairs = value.items() if isinstance(value, dict) else [(None, value)]
+    return [(key if axis is None else f"{key}['{axis}']", pair) for axis, pair in pairs
+            if isinstance(pair, (tuple, list)) and len(pair) == 2
+            and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in pair)]
 
 
 def prepare_term(env, manager: str, name: str, term_cfg, skip_first: int = 1):
@@ -40,6 +57,9 @@ def prepare_term(env, manager: str, name: str, term_cfg, skip_first: int = 1):
         # a standard deviation divides: by the naming rule (`std`, `std_rad`, ...) it must be positive
         if (key == "std" or key.startswith("std_")) and isinstance(value, (int, float)) and not value > 0:
             raise ConfigError(f"{where}, param '{key}': a standard deviation must be positive, got {value}")
+        for label, pair in range_params(key, value):
+            if not pair[0] <= pair[1]:
+                raise ConfigError(f"{where}, param '{label}': a range must be ordered (low <= high), got {tuple(pair)}")
         if isinstance(value, SceneEntityCfg):
             try:
                 value.resolve(env)

@@ -30,6 +30,16 @@ class _TermHistory:
         self.needs_fill |= env_mask
 
 
+def check_noise_and_clip(term: ObsTerm, where: str) -> None:
+    """Noise is drawn between n_min and n_max and the clip keeps values between its ends: either inverted
+    would silently do something other than what it says."""
+    if term.noise is not None and not term.noise.n_min <= term.noise.n_max:
+        raise ConfigError(f"{where}.noise: n_min must be <= n_max, got n_min={term.noise.n_min}, "
+                          f"n_max={term.noise.n_max}")
+    if term.clip is not None and not term.clip[0] <= term.clip[1]:
+        raise ConfigError(f"{where}.clip must be ordered (low <= high), got {tuple(term.clip)}")
+
+
 class ObservationManager:
     def __init__(self, cfg, env):
         self.env = env
@@ -46,6 +56,7 @@ class ObservationManager:
             self.histories[group_name] = {}
             self.term_dims[group_name] = {}
             for name, term in terms.items():
+                check_noise_and_clip(term, f"task '{env.task_name}': observations.{group_name}.{name}")
                 dim = self.funcs[group_name][name](env, **term.params).shape[-1]
                 length = group.history_length if group.history_length is not None else term.history_length
                 if length < 0:

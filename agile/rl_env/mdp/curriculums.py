@@ -15,7 +15,11 @@ class update_reward_weight_step(ManagerTermBase):  # noqa: N801 (AGILE's name)
 
     def __init__(self, cfg, env):
         super().__init__(cfg, env)
-        self.start_weight = env.reward_manager.get_term_cfg(cfg.params["reward_name"]).weight
+        reward_name = cfg.params["reward_name"]
+        self.start_weight = env.reward_manager.get_term_cfg(reward_name).weight
+        if reward_name not in env.reward_manager.weights:  # found here, not at the first step
+            raise ValueError(f"reward term '{reward_name}' has weight 0 in the config and is not computed; give it a "
+                             f"non-zero weight to ramp it")
         if cfg.params.get("use_log_space", False):
             terminal = cfg.params["terminal_weight"]
             if self.start_weight * terminal <= 0.0:

@@ -126,6 +126,8 @@ def randomize_rigid_body_material(env, env_mask: torch.Tensor, static_friction_r
     `model.shape_material_restitution` for Newton's other solvers; MuJoCo contacts do not model it.
     """
     _forbid_capture("randomize_rigid_body_material")
+    if num_buckets < 1:
+        raise ValueError(f"num_buckets must be >= 1, got {num_buckets}")
     entity = env.scene[asset_cfg.name]
     model = env.sim.model
     device = env.device

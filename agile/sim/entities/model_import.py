@@ -13,6 +13,7 @@ import numpy as np
 import warp as wp
 
 from agile.actuators import is_explicit
+from agile.actuators.implicit import check_actuator_values
 from agile.sim.names import resolve_names, resolve_values
 from agile.sim.scene_cfg import (BODY_TYPES, ArticulationCfg, BoxShapeCfg, CapsuleShapeCfg, CylinderShapeCfg,
                                  MeshFileShapeCfg, ModelFileShapeCfg, RigidObjectCfg, SphereShapeCfg)
@@ -58,9 +59,24 @@ def dof_names(builder: newton.ModelBuilder) -> list[str]:
     return names
 
 
+CONTACT_DIMS = (1, 3, 4, 6)
+"""MuJoCo's condim values: frictionless, friction cone, with torsional, with rolling friction."""
+
+
+def check_pose_and_contacts(cfg: ArticulationCfg | RigidObjectCfg) -> None:
+    """Raise ValueError naming the field: the initial orientation must be a unit quaternion (a zero one would
+    reach the solver as a degenerate rotation), the contact dimension one MuJoCo knows."""
+    norm = float(np.linalg.norm(cfg.init_rot_xyzw))
+    if len(cfg.init_rot_xyzw) != 4 or abs(norm - 1.0) > 1e-3:
+        raise ValueError(f"init_rot_xyzw must be a unit quaternion (x, y, z, w), got {tuple(cfg.init_rot_xyzw)}")
+    if cfg.contact_dim is not None and cfg.contact_dim not in CONTACT_DIMS:
+        raise ValueError(f"contact_dim must be one of {CONTACT_DIMS} (MuJoCo condim), got {cfg.contact_dim}")
+
+
 def build_articulation(cfg: ArticulationCfg, gravity_mps2: float) -> tuple[newton.ModelBuilder, list[str], list[str]]:
     """One articulation in its own builder, with actuator settings applied per DoF. Returns (builder, joints,
     bodies)."""
+    check_pose_and_contacts(cfg)
     builder = new_builder(gravity_mps2)
     import_model_file(builder, Path(cfg.model_file), floating=not cfg.fixed_base,
                       self_collisions=cfg.self_collisions, parse_visuals=cfg.parse_visuals,
@@ -110,6 +126,7 @@ def build_articulation(cfg: ArticulationCfg, gravity_mps2: float) -> tuple[newto
 
 def apply_actuator_to_builder(builder: newton.ModelBuilder, act, joint_names: list[str], root_dofs: int) -> None:
     """Write an actuator group's gains and limits into the builder's per-DoF lists (DoF root_dofs+j is joint j)."""
+    check_actuator_values(act)
     ids, names = resolve_names(act.joint_names_expr, joint_names)
 
     def values(value) -> dict[int, float]:
@@ -135,6 +152,7 @@ def build_rigid_object(cfg: RigidObjectCfg, name: str, gravity_mps2: float) -> t
     every world can place it at its own env origin. Returns (builder, body names)."""
     if cfg.body_type not in BODY_TYPES:
         raise ValueError(f"body_type '{cfg.body_type}' is not one of {list(BODY_TYPES)}")
+    check_pose_and_contacts(cfg)
     kinematic = cfg.body_type == "kinematic"
     if kinematic and cfg.mass_kg is not None:
         raise ValueError("mass_kg: a kinematic object has no mass (it moves only where its root state is written); "
