@@ -92,6 +92,31 @@ def test_train_writes_checkpoint_logs_and_configs_then_resumes(trained_run):
     resumed = int(re.search(r"resuming from \S*model_(\d+)\.pt", out).group(1))
     assert f"continuing at iteration {resumed + 1}" in out and f"Learning iteration {resumed + 1}/" in out, out
     assert f"Learning iteration {resumed}/" not in out  # the checkpoint's iteration is not run again
+    # --max_iterations 2 after the checkpoint's: its last checkpoint is 2 later, and the env-step counter (what
+    # the reward-weight ramps read) went on from the checkpoint's instead of starting over at 0
+    resumed_run = next(p for p in run_dir.parent.iterdir() if (p / f"model_{resumed + 2}.pt").is_file())
+    last = torch.load(resumed_run / f"model_{resumed + 2}.pt", weights_only=True)
+    assert last["iter"] == resumed + 2
+    assert int(last["infos"]["env_state"]["common_step_counter"]) == (resumed + 1 + 2) * 4
+
+
+def test_train_with_injected_nan_actions_logs_the_envs_it_ended(tmp_path):
+    """The fault injection of the GPU reliability run, on CPU: NaN actions in half of the envs at the start of
+    every iteration after the first; the log of that iteration counts them, the first one's does not."""
+    import re
+
+    code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "4", "--max_iterations", "2",
+                    "--device", "cpu", "--log_root", str(tmp_path), "--inject_nan_actions", "0.5", "1",
+                    "agent.num_steps_per_env=4")
+    assert code == 0, out
+    assert "fault injection 1: NaN actions in 2 envs" in out and "fault injection 2" not in out, out
+    iterations = out.split("Learning iteration ")[1:]
+    counts = [float(re.search(r"Episode_Termination/invalid_action:\s+([0-9.]+)", text).group(1))
+              for text in iterations]
+    assert len(counts) == 2 and counts[0] == 0.0 and counts[1] > 0.0, out
+    code, out, err = run_split("scripts/train.py", "--task", "Velocity-T1-v0", "--device", "cpu",
+                               "--inject_nan_actions", "1.5", "1")
+    assert code == 2 and "SHARE within (0, 1]" in err, err
 
 
 def test_train_init_policy_starts_from_the_shipped_actor(tmp_path):

@@ -37,6 +37,8 @@ def test_task_builds_steps_resets_and_trains(task, tmp_path):
     for _ in range(3):
         obs, reward, terminated, truncated, extras = env.step(torch.rand(2, env.action_manager.total_action_dim) - 0.5)
         assert torch.isfinite(reward).all()
+    # the env counts a NaN term as 0 in the reward: a finite reward alone would prove nothing
+    assert not {name: int(n) for name, n in env.reward_manager.nonfinite_count.items() if int(n)}
     assert_in_space(env.observation_space, obs, "obs")
     assert_in_space(env.single_observation_space, obs[0], "obs[0]")
     obs, _ = env.reset()
@@ -68,6 +70,8 @@ def test_multi_agent_task_builds_steps_resets_and_trains(task, tmp_path):
         dims = {a: world.agents[a].action_manager.total_action_dim for a in world.acting_agents}
         for name, step in world.step({a: torch.rand(2, d) - 0.5 for a, d in dims.items()}).items():
             assert torch.isfinite(step.reward).all(), name
+    for name, agent in world.agents.items():  # a NaN term counts 0 in the reward: finite rewards alone prove nothing
+        assert not {term: int(n) for term, n in agent.reward_manager.nonfinite_count.items() if int(n)}, name
     world.reset()
     assert all((a.episode_length_buf == 0).all() for a in world.agents.values())
 
