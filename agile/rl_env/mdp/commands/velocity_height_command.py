@@ -132,6 +132,9 @@ class UniformVelocityBaseHeightCommandCfg:
     """The walking height when `random_height_during_walking` is off (G1's nominal pelvis height)."""
     min_walk_height_m: float = 0.5
     random_height_during_walking: bool = False
+    height_sensor_name: str | None = None
+    """The height scanner under the base that measures the height this command asks for (rewards and evaluation
+    read the height above the terrain through it); None: above z = 0."""
     heading_command: bool = False
     rel_heading_envs: float = 1.0
     heading_control_stiffness: float = 0.5

@@ -32,6 +32,7 @@ SCENE = velocity_height_scene_cfg(actuators="delayed_dc_motor")
 @configclass
 class CommandsCfg:
     base_velocity = mdp.UniformVelocityBaseHeightCommandCfg(
+        height_sensor_name=BASE_HEIGHT_SENSOR,
         resampling_time_range_s=(5.0, 10.0), rel_standing_envs=0.2, ema_smoothing=0.5,
         heading_command=True, rel_heading_envs=1.0, heading_control_stiffness=0.5,
         default_height_m=STANDING_HEIGHT_M, min_walk_height_m=STANDING_HEIGHT_M,

@@ -66,6 +66,7 @@ def velocity_height_scene_cfg(actuators: str = "armature_delayed_implicit") -> S
 @configclass
 class CommandsCfg:
     base_velocity = mdp.UniformVelocityBaseHeightCommandCfg(
+        height_sensor_name=BASE_HEIGHT_SENSOR,
         resampling_time_range_s=(7.5, 10.0), rel_standing_envs=0.1, ema_smoothing=0.5,
         default_height_m=STANDING_HEIGHT_M, min_walk_height_m=0.5, random_height_during_walking=False,
         ranges=mdp.VelocityHeightRangesCfg(lin_vel_x=(-0.5, 0.5), lin_vel_y=(-0.5, 0.5), ang_vel_z=(-1.0, 1.0),
