@@ -83,3 +83,43 @@ def test_a_student_without_a_teacher_is_refused_in_one_line(tmp_path):
     assert code == 2 and "--teacher file not found" in out, out
     code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--teacher", "x.pt", *SHORT)
     assert code == 2 and "trained by PPO" in out, out
+
+
+def test_eval_reports_the_height_error_and_sweeps_velocity_by_height(teacher_run, tmp_path):
+    out = tmp_path / "sweep.json"
+    code, log = run("scripts/eval.py", "--task", TEACHER, "--checkpoint", str(teacher_run / "model_0.pt"),
+                    "--device", "cpu", "--num_envs", "4", "--episode_length_s", "0.2", "--sweep_lin_vel_x", "0", "0.5",
+                    "--sweep_base_height", "0.5", "0.72", "--out", str(out))
+    assert code == 0, log
+    import json
+
+    result = json.loads(out.read_text())
+    assert [cell["command"] for cell in result["cells"]] == [[0.0, 0.0, 0.0, 0.5], [0.5, 0.0, 0.0, 0.5],
+                                                           [0.0, 0.0, 0.0, 0.72], [0.5, 0.0, 0.0, 0.72]]
+    for cell in result["cells"]:
+        assert cell["num_envs"] == 1 and 0.0 <= cell["base_height_error_m"] < 1.0
+    assert "| vx [m/s] | height [m] | fall rate |" in log
+
+
+def test_a_fixed_command_holds_through_resampling_resets_and_smoothing():
+    sys.path.insert(0, str(ROOT / "tests"))
+    from fakes import FakeEnv
+
+    from agile.rl_env import mdp
+
+    env = FakeEnv(num_envs=2)
+    term = mdp.UniformVelocityBaseHeightCommand(mdp.UniformVelocityBaseHeightCommandCfg(ema_smoothing=0.5), env)
+    fixed = torch.tensor([[0.5, 0.0, 0.0, 0.72], [0.0, 0.0, 0.0, 0.45]])
+    term.set_fixed_command(fixed)
+    for _ in range(3):
+        term.time_left_s[:] = 0.0  # resample every step: the drawn commands must not show
+        term.compute(0.02)
+        torch.testing.assert_close(term.command, fixed)
+    term.reset(torch.ones(2, dtype=torch.bool))
+    torch.testing.assert_close(term.command, fixed)
+    term.set_fixed_command(None)
+    term.time_left_s[:] = 0.0
+    term.compute(0.02)
+    assert not torch.equal(term.command, fixed)  # drawing again
+    with pytest.raises(ValueError, match="this command is"):
+        term.set_fixed_command(torch.zeros(3))

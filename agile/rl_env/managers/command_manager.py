@@ -63,10 +63,15 @@ class CommandTerm:
         self._update_command()
         self._hold_fixed_command()
 
+    def _start_episodes(self, env_mask: torch.Tensor) -> None:
+        """What a new episode of the masked envs needs after its first command (e.g. no smoothing ramp from the
+        last episode's command)."""
+
     def reset(self, env_mask: torch.Tensor) -> dict:
         self._draw_time_left(env_mask)
         self._resample(env_mask)
         self._update_command()
+        self._start_episodes(env_mask)
         self._hold_fixed_command()
         return {}
 

@@ -103,11 +103,9 @@ class UniformVelocityBaseHeightCommand(CommandTerm):
         alpha = cfg.ema_smoothing
         self.height_command_m.mul_(1.0 - alpha).add_(alpha * self.height_target_m)
 
-    def reset(self, env_mask: torch.Tensor) -> dict:
-        super().reset(env_mask)
+    def _start_episodes(self, env_mask: torch.Tensor) -> None:
         # a new episode starts at its drawn height, not on a ramp from the last episode's
         self.height_command_m.copy_(torch.where(env_mask, self.height_target_m, self.height_command_m))
-        return {}
 
 
 @configclass
