@@ -39,6 +39,9 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str = "base_v
     zeros = lambda: torch.zeros(n, device=env.device)  # noqa: E731
     sums = {key: zeros() for key in ("lin_vel_error_mps", "ang_vel_error_radps", "base_height_error_m",
                                      "steps_alive", "episodes", "falls", "ended_length_steps")}
+    terminations = env.termination_manager
+    failure_terms = [name for name, cfg in terminations.term_cfgs.items() if not cfg.time_out]
+    sums.update({f"ended_by/{name}": zeros() for name in failure_terms})
     episode_steps = zeros()
     term_sums = {name: torch.zeros((), device=env.device) for name in env.reward_manager.weights}
     robot = env.scene[env.action_manager.policy_entity_name()]  # the robot the policy drives
@@ -65,6 +68,8 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str = "base_v
             episode_steps.masked_fill_(done, 0.0)
             sums["episodes"] += done.float()
             sums["falls"] += terminated.float()
+            for name in failure_terms:  # which failure ended the episode (several can at once)
+                sums[f"ended_by/{name}"] += terminations.term_dones[name].float()
     return {"sums": sums, "reward_totals": term_sums, "steps": num_episodes * env.max_episode_length,
             "has_height_command": height_sensor is not None}
 
@@ -81,6 +86,9 @@ def summarise(sums: dict, step_dt: float, has_height_command: bool, mask=None) -
                "mean_episode_length_s": total["ended_length_steps"] * step_dt / episodes}
     if has_height_command:
         metrics["base_height_error_m"] = total["base_height_error_m"] / steps_alive
+    # "falls" are the episodes a failure term ended; by term (an episode two terms ended counts for both)
+    metrics["falls_by_term"] = {key.split("/", 1)[1]: int(value) for key, value in total.items()
+                                if key.startswith("ended_by/")}
     return metrics
 
 
