@@ -1,0 +1,129 @@
+"""The `agile` command line.
+
+    agile list                                   # every registered task: kind, shipped policy
+    agile show Velocity-T1-v0                    # the resolved MDP (builds the env on CPU with 1 env)
+    agile diff Velocity-T1-v0 Velocity-G1-History-v0   # the config paths whose values differ
+    agile train --task Velocity-T1-v0 ...        # train|play|eval|eval_all|export: scripts/<name>.py, same python
+
+`agile <script> --help` shows that script's options.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+from pathlib import Path
+
+import yaml
+
+SCRIPTS_DIR = Path(__file__).resolve().parents[1] / "scripts"
+FORWARDED = ("train", "play", "eval", "eval_all", "export")
+"""Subcommands that run scripts/<name>.py with the arguments that follow."""
+EXIT_USAGE = 2
+
+
+def fail(message: str):
+    print(f"error: {message}", file=sys.stderr)
+    sys.exit(EXIT_USAGE)
+
+
+def check_task(task: str) -> None:
+    """Exit 2 with one line listing the registered tasks unless `task` is one."""
+    from agile.tasks import registered_tasks
+
+    if task not in registered_tasks():
+        fail(f"unknown task '{task}'. Registered tasks: {', '.join(registered_tasks())}")
+
+
+def cmd_list(_args) -> None:
+    from agile.tasks.catalogue import catalogue
+
+    entries = catalogue()
+    width = max(len(e.task) for e in entries)
+    print(f"{'task':<{width}}  {'kind':<11}  shipped policy")
+    for e in entries:
+        print(f"{e.task:<{width}}  {e.kind:<11}  {e.policy.name if e.policy else '-'}")
+
+
+def cmd_show(args) -> None:
+    check_task(args.task)
+    import agile.tasks
+    from agile.tasks.catalogue import task_entry
+    from agile.tasks.describe import resolved_mdp
+    from agile.utils.config import ConfigError, apply_overrides
+
+    entry = task_entry(args.task)
+    if entry.kind == "multi_agent":
+        fail(f"agile show resolves single-agent tasks; {args.task} is multi-agent (its agents' tasks: "
+             f"{sorted(agile.tasks.task_spec(args.task).kwargs.get('single_agent_baselines', {}).values())})")
+    env_cfg, _ = agile.tasks.load_cfgs(args.task)
+    env_cfg.num_envs = 1
+    try:
+        apply_overrides({"env": env_cfg}, args.overrides)
+    except ConfigError as err:
+        fail(str(err))
+    from agile.rl_env import ManagerBasedRLEnv
+
+    print(f"[agile] building {args.task} on CPU with 1 env", file=sys.stderr, flush=True)
+    env = ManagerBasedRLEnv(env_cfg, task_name=args.task, device="cpu")
+    mdp = {"kind": entry.kind, "shipped_policy": entry.policy.name if entry.policy else None, **resolved_mdp(env)}
+    if args.section:
+        if args.section not in mdp:
+            fail(f"no section '{args.section}'. Sections: {', '.join(mdp)}")
+        mdp = {args.section: mdp[args.section]}
+    print(yaml.safe_dump(mdp, sort_keys=False, width=120), end="")
+
+
+def cmd_diff(args) -> None:
+    check_task(args.task_a)
+    check_task(args.task_b)
+    from agile.tasks.describe import config_diff, task_config_tree
+
+    diff = config_diff(task_config_tree(args.task_a), task_config_tree(args.task_b))
+    if not diff:
+        print(f"{args.task_a} and {args.task_b} have the same configs")
+        return
+    print(f"# {len(diff)} paths differ: {args.task_a} -> {args.task_b}")
+    for path, (a, b) in diff.items():
+        print(f"{path}: {a!r} -> {b!r}")
+
+
+def forward(script: str, argv: list[str]) -> int:
+    """Run scripts/<script>.py with the same python and these arguments; its exit code."""
+    path = SCRIPTS_DIR / f"{script}.py"
+    if not path.is_file():
+        fail(f"{path} not found: `agile {script}` runs the scripts of a source checkout (pip install -e .)")
+    return subprocess.call([sys.executable, str(path), *argv])
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="agile", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub.add_parser("list", help="registered tasks with their kind and shipped policy").set_defaults(func=cmd_list)
+    show = sub.add_parser("show", help="the resolved MDP of a task (builds it on CPU with 1 env)")
+    show.add_argument("task")
+    show.add_argument("--section", default=None, help="print only this section, e.g. rewards, observations, actuators")
+    show.add_argument("overrides", nargs="*", help="env config overrides, env.<path>=<value>")
+    show.set_defaults(func=cmd_show)
+    diff = sub.add_parser("diff", help="the flattened config paths (env and agent) whose values differ")
+    diff.add_argument("task_a")
+    diff.add_argument("task_b")
+    diff.set_defaults(func=cmd_diff)
+    for name in FORWARDED:  # listed for --help; their arguments are parsed by the scripts themselves
+        sub.add_parser(name, help=f"scripts/{name}.py (agile {name} --help for its options)", add_help=False)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] in FORWARDED:
+        return forward(argv[0], argv[1:])
+    args = build_parser().parse_args(argv)
+    args.func(args)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
