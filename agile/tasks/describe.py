@@ -55,8 +55,13 @@ def _observations(env) -> dict:
     return out
 
 
+def _f32(value) -> float:
+    """A float32 tensor entry as the number it was set to (0.2, not 0.20000000298023224)."""
+    return float(f"{float(value):.6g}")
+
+
 def _actuators(articulation) -> dict:
-    """Per joint: its actuator group and model, and the gains and limits world 0 holds (before randomisation
+    """Per joint: its actuator group and model, and its gains and limits as built (before the startup randomisation
     draws, which scale these nominal values per world)."""
     group_of = {}
     for group_name, act in articulation.cfg.actuators.items():
@@ -67,13 +72,13 @@ def _actuators(articulation) -> dict:
         group, model = group_of.get(i, (None, None))
         per_joint[joint] = {
             "group": group, "model": model,
-            "stiffness": float(articulation.nominal_joint_stiffness[i]),
-            "damping": float(articulation.nominal_joint_damping[i]),
-            "effort_limit_nm": float(articulation.joint_effort_limit[0, i]),
-            "velocity_limit_radps": float(articulation.joint_vel_limit[0, i]),
-            "armature": float(articulation.nominal_joint_armature[i]),
-            "friction_nm": float(articulation.nominal_joint_friction[i]),
-            "default_pos_rad": float(articulation.default_joint_pos[0, i]),
+            "stiffness_nm_per_rad": _f32(articulation.nominal_joint_stiffness[i]),
+            "damping_nms_per_rad": _f32(articulation.nominal_joint_damping[i]),
+            "effort_limit_nm": _f32(articulation.joint_effort_limit[0, i]),
+            "velocity_limit_radps": _f32(articulation.joint_vel_limit[0, i]),
+            "armature_kgm2": _f32(articulation.nominal_joint_armature[i]),
+            "friction_nm": _f32(articulation.nominal_joint_friction[i]),
+            "default_pos_rad": _f32(articulation.default_joint_pos[0, i]),
         }
     return per_joint
 
