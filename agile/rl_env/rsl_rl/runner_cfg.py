@@ -59,7 +59,9 @@ class PpoAlgorithmCfg:
 
 
 @configclass
-class PpoRunnerCfg:
+class RunnerCommonCfg:
+    """What every runner config has: the run's name and seed, the rollout length, the schedule and logging."""
+
     experiment_name: str = "agile"
     run_name: str = ""
     seed: int = 42
@@ -67,13 +69,17 @@ class PpoRunnerCfg:
     max_iterations: int = 1000
     save_interval: int = 100
     logger: str = "tensorboard"
-    obs_groups: dict[str, list[str]] = field(default_factory=lambda: {"actor": ["policy"], "critic": ["critic"]})
     clip_actions: float | None = None
     check_for_nan: bool = True
     """rsl-rl checks every step's observations, rewards and dones for NaN (a host sync per check)."""
     torch_compile_mode: str | None = None
-    """rsl-rl compiles the actor and critic with torch.compile in this mode ("default",
-    "max-autotune-no-cudagraphs"); None: eager."""
+    """rsl-rl compiles the models with torch.compile in this mode ("default", "max-autotune-no-cudagraphs");
+    None: eager."""
+
+
+@configclass
+class PpoRunnerCfg(RunnerCommonCfg):
+    obs_groups: dict[str, list[str]] = field(default_factory=lambda: {"actor": ["policy"], "critic": ["critic"]})
     algorithm: PpoAlgorithmCfg = field(default_factory=PpoAlgorithmCfg)
     actor: MlpModelCfg = field(default_factory=lambda: MlpModelCfg(distribution_cfg=DistributionCfg()))
     critic: MlpModelCfg = field(default_factory=MlpModelCfg)
@@ -110,24 +116,14 @@ class DistillationAlgorithmCfg:
 
 
 @configclass
-class DistillationRunnerCfg:
+class DistillationRunnerCfg(RunnerCommonCfg):
     """A student trained to act as a teacher policy does, the teacher seeing the privileged group "teacher".
 
     `teacher` is the architecture of the teacher task's actor (`teacher_task`), so that its checkpoint or its
     TorchScript export loads into it; the teacher is chosen at training time (`train.py --teacher PATH`)."""
 
-    experiment_name: str = "agile"
-    run_name: str = ""
-    seed: int = 42
-    num_steps_per_env: int = 24
-    max_iterations: int = 1000
-    save_interval: int = 100
-    logger: str = "tensorboard"
     obs_groups: dict[str, list[str]] = field(default_factory=lambda: {"student": ["policy"],
                                                                       "teacher": ["teacher"]})
-    clip_actions: float | None = None
-    check_for_nan: bool = True
-    torch_compile_mode: str | None = None
     teacher_task: str = ""
     """The registered task whose trained policy is the teacher (its `policy` group is this task's `teacher`)."""
     algorithm: DistillationAlgorithmCfg = field(default_factory=DistillationAlgorithmCfg)
