@@ -1,0 +1,53 @@
+"""scripts/eval_all.py in the tiny CPU setting on every task with a shipped policy (issue 25): it loads and steps
+each policy, writes a JSON per task and the report, and says that the criteria were not checked."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+from agile.tasks.catalogue import evaluated_tasks
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def test_eval_all_tiny_cpu_setting(tmp_path):
+    out = tmp_path / "eval"
+    result = subprocess.run([sys.executable, str(REPO / "scripts" / "eval_all.py"), "--device", "cpu", "--num_envs", "2",
+                             "--episode_length_s", "1", "--out", str(out)], capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    tasks = [e.task for e in evaluated_tasks()]
+    assert tasks, "no task has a shipped policy"
+    report = (out / "report.md").read_text()
+    assert "Criteria not checked" in report
+    for task in tasks:
+        metrics = json.loads((out / f"{task}.json").read_text())
+        assert metrics["criteria_checked"] is False and metrics["device"] == "cpu" and metrics["num_envs"] == 2
+        assert metrics["episodes"] == 2  # two envs, one 1 s episode each
+        assert set(metrics["criteria"]) <= set(metrics)  # every criterion was measured
+        assert all(isinstance(v, float) and v == v for v in metrics["reward_per_step"].values())
+        assert f"| {task} |" in report
+
+
+def test_eval_all_refuses_a_task_without_policy(tmp_path):
+    result = subprocess.run([sys.executable, str(REPO / "scripts" / "eval_all.py"), "--device", "cpu",
+                             "--tasks", "Debug-T1-v0", "--out", str(tmp_path)], capture_output=True, text=True,
+                            timeout=300)
+    assert result.returncode == 2
+    assert "Debug-T1-v0" in result.stderr and "Velocity-T1-v0" in result.stderr
+
+
+def test_verdict_fails_a_checked_run_that_misses_a_criterion(monkeypatch):
+    monkeypatch.syspath_prepend(str(REPO / "scripts"))
+    from eval_all import report_markdown, verdict
+
+    result = {"task": "Velocity-T1-v0", "kind": "trainable", "device": "cuda:0", "num_envs": 512, "num_episodes": 1,
+              "episode_length_s": 20.0, "fall_rate": 0.2, "lin_vel_error_mps": 0.1, "ang_vel_error_radps": 0.1,
+              "mean_episode_length_s": 15.0, "reward_per_step": {"track": 1.0},
+              "criteria": {"fall_rate": 0.05, "lin_vel_error_mps": 0.25}, "criteria_checked": True}
+    assert verdict(result) == ("FAIL", ["fall_rate 0.2 > 0.05"])
+    assert "FAIL: fall_rate 0.2 > 0.05" in report_markdown([result], plots=[])
+    assert verdict({**result, "criteria_checked": False})[0] == "not checked"
+    assert verdict({**result, "fall_rate": 0.01})[0] == "pass"
