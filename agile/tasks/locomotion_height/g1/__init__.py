@@ -1,14 +1,14 @@
 """Velocity-Height-G1: walk at a commanded velocity and base height (0.4-0.72 m). A privileged teacher is
 trained by PPO; the students, which see only what the robot measures, learn from it by distillation."""
 
-import gymnasium as gym
+from agile.tasks.registration import register_task
 
 ENV_CFGS = f"{__name__}.velocity_height_env_cfg"
 AGENT_CFGS = f"{__name__}.agents.rsl_rl_cfg"
 TEACHER_ENV_CFG = "G1VelocityHeightTeacherEnvCfg"
 TASKS = {  # id: (env cfg class, runner cfg function)
-    "Velocity-Height-G1-v0": ("G1VelocityHeightTeacherEnvCfg", "g1_velocity_height_teacher_ppo_runner_cfg"),
-    "Velocity-Height-G1-Teacher-v0": ("G1VelocityHeightTeacherEnvCfg", "g1_velocity_height_teacher_ppo_runner_cfg"),
+    "Velocity-Height-G1-v0": (TEACHER_ENV_CFG, "g1_velocity_height_teacher_ppo_runner_cfg"),
+    "Velocity-Height-G1-Teacher-v0": (TEACHER_ENV_CFG, "g1_velocity_height_teacher_ppo_runner_cfg"),
     "Velocity-Height-G1-Student-Recurrent-v0": ("G1VelocityHeightRecurrentStudentEnvCfg",
                                                 "g1_velocity_height_recurrent_student_runner_cfg"),
     "Velocity-Height-G1-Student-History-v0": ("G1VelocityHeightHistoryStudentEnvCfg",
@@ -17,13 +17,6 @@ TASKS = {  # id: (env cfg class, runner cfg function)
 }
 
 for task_id, (env_cfg, runner_cfg) in TASKS.items():
-    gym.register(
-        id=task_id,
-        entry_point="agile.rl_env.env:ManagerBasedRLEnv",
-        disable_env_checker=True,
-        order_enforce=False,
-        kwargs={"task_name": task_id, "env_cfg_entry_point": f"{ENV_CFGS}:{env_cfg}",
-                "rsl_rl_cfg_entry_point": f"{AGENT_CFGS}:{runner_cfg}",
-                # the teacher's two IDs share the policy shipped as Velocity-Height-G1-Teacher-v0.pt
-                "shipped_policy": "Velocity-Height-G1-Teacher-v0" if env_cfg == TEACHER_ENV_CFG else task_id},
-    )
+    # the teacher's two IDs share the policy shipped as Velocity-Height-G1-Teacher-v0.pt
+    register_task(task_id, f"{ENV_CFGS}:{env_cfg}", f"{AGENT_CFGS}:{runner_cfg}",
+                  shipped_policy="Velocity-Height-G1-Teacher-v0" if env_cfg == TEACHER_ENV_CFG else task_id)
