@@ -333,15 +333,15 @@ def test_harness_wrench_for_a_known_displacement_and_velocity(teacher_env):
 
 # -- the env configs build and step --------------------------------------------------------------------------
 
-def _build(cfg_class):
-    cfg = cfg_class()
+def _build(make_cfg):
+    cfg = make_cfg()
     cfg.num_envs = 2
     return ManagerBasedRLEnv(cfg, device="cpu")
 
 
 @pytest.fixture(scope="module")
 def teacher_env():
-    env = _build(height_cfgs.G1VelocityHeightTeacherEnvCfg)
+    env = _build(height_cfgs.teacher_env_cfg)
     yield env
     env.close()
 
@@ -370,7 +370,7 @@ def test_teacher_steps_held_up_by_the_harness(teacher_env):
     assert (robot.root_pos_w[:, 2] - env.scene["height_measurement_sensor"].hit_z_m.mean(dim=1) > 0.45).all()
 
 
-@pytest.mark.parametrize("student", ["G1VelocityHeightRecurrentStudentEnvCfg", "G1VelocityHeightHistoryStudentEnvCfg"])
+@pytest.mark.parametrize("student", ["recurrent_student_env_cfg", "history_student_env_cfg"])
 def test_students_see_the_teachers_policy_group_and_have_no_harness(student, teacher_env):
     env = _build(getattr(height_cfgs, student))
     assert env.observation_manager.term_dims["teacher"] == teacher_env.observation_manager.term_dims["policy"]
@@ -378,7 +378,7 @@ def test_students_see_the_teachers_policy_group_and_have_no_harness(student, tea
     assert "harness" not in env.action_manager.active_terms
     assert "remove_harness" not in env.curriculum_manager.active_terms
     obs = _step_finite(env, 3)
-    history = 5 if "History" in student else 1
+    history = 5 if "history" in student else 1
     assert obs["policy"]["projected_gravity"].shape == (2, 3 * history)
     env.close()
 

@@ -51,7 +51,9 @@ class Distillation(RslRlDistillation):
             return super().update()
         # rsl-rl's update (non-recurrent student: no hidden state to carry), with the mirror loss added
         self.num_updates += 1
-        behavior_sum = mirror_sum = 0.0
+        # the losses are summed on the device and read once per update, not once per batch
+        behavior_sum = torch.zeros((), device=self.device)
+        mirror_sum = torch.zeros((), device=self.device)
         loss = 0.0
         count = 0
         for _ in range(self.num_learning_epochs):
@@ -60,8 +62,8 @@ class Distillation(RslRlDistillation):
                 behavior_loss = self.loss_fn(actions, batch.privileged_actions)
                 mirror_loss = self._mirror_loss(batch.observations, actions)
                 loss = loss + behavior_loss + self.mirror_loss_coeff * mirror_loss
-                behavior_sum += behavior_loss.item()
-                mirror_sum += mirror_loss.item()
+                behavior_sum += behavior_loss.detach()
+                mirror_sum += mirror_loss.detach()
                 count += 1
                 if count % self.gradient_length == 0:
                     self.optimizer.zero_grad()
@@ -74,7 +76,7 @@ class Distillation(RslRlDistillation):
                     loss = 0.0
         self.student.update_normalization(self.storage.observations.flatten(0, 1))
         self.storage.clear()
-        return {"behavior": behavior_sum / count, "mirror": mirror_sum / count}
+        return {"behavior": behavior_sum.item() / count, "mirror": mirror_sum.item() / count}
 
     def load_teacher_weights(self, state_dict: dict[str, torch.Tensor], source: str) -> None:
         """Load an exported policy's weights into the teacher: every exported weight must have its place and

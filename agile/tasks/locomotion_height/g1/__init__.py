@@ -5,15 +5,15 @@ from agile.tasks.registration import register_task
 
 ENV_CFGS = f"{__name__}.velocity_height_env_cfg"
 AGENT_CFGS = f"{__name__}.agents.rsl_rl_cfg"
-TEACHER_ENV_CFG = "G1VelocityHeightTeacherEnvCfg"
-TASKS = {  # id: (env cfg class, runner cfg function)
+TEACHER_ENV_CFG = "teacher_env_cfg"
+TASKS = {  # id: (env cfg function, runner cfg function)
     "Velocity-Height-G1-v0": (TEACHER_ENV_CFG, "g1_velocity_height_teacher_ppo_runner_cfg"),
     "Velocity-Height-G1-Teacher-v0": (TEACHER_ENV_CFG, "g1_velocity_height_teacher_ppo_runner_cfg"),
-    "Velocity-Height-G1-Student-Recurrent-v0": ("G1VelocityHeightRecurrentStudentEnvCfg",
+    "Velocity-Height-G1-Student-Recurrent-v0": ("recurrent_student_env_cfg",
                                                 "g1_velocity_height_recurrent_student_runner_cfg"),
-    "Velocity-Height-G1-Student-History-v0": ("G1VelocityHeightHistoryStudentEnvCfg",
+    "Velocity-Height-G1-Student-History-v0": ("history_student_env_cfg",
                                               "g1_velocity_height_history_student_runner_cfg"),
-    "Velocity-Height-G1-History-v0": ("G1VelocityHeightHistoryEnvCfg", "g1_velocity_height_history_ppo_runner_cfg"),
+    "Velocity-Height-G1-History-v0": ("history_env_cfg", "g1_velocity_height_history_ppo_runner_cfg"),
 }
 
 for task_id, (env_cfg, runner_cfg) in TASKS.items():

@@ -7,9 +7,9 @@ curriculum removes over 50k env steps; the students see only what the robot meas
 teacher by distillation (no harness). Less-rough terrain with the terrain curriculum, domain randomisation,
 pushes, and random waist-yaw and arm motions.
 
-Configs: `G1VelocityHeightTeacherEnvCfg`, `G1VelocityHeightRecurrentStudentEnvCfg`,
-`G1VelocityHeightHistoryStudentEnvCfg`, `G1VelocityHeightHistoryEnvCfg` (PPO on the history student's
-observations, no teacher).
+Configs (one builder, `velocity_height_env_cfg`, with the observation groups and whether the harness is on):
+`teacher_env_cfg`, `recurrent_student_env_cfg`, `history_student_env_cfg`, `history_env_cfg` (PPO on the history
+student's observations, no teacher).
 """
 
 from __future__ import annotations
@@ -264,57 +264,12 @@ class CurriculumCfg:
 
 # -- env configs: each one the whole MDP, from the blocks above -------------------------------------------
 
-def without_harness(actions: ActionsCfg) -> ActionsCfg:
-    """The actions without the training-only harness (students learn on the robot as it is)."""
-    return dataclasses.replace(actions, harness=None)
-
-
-def without_harness_curriculum(curriculum: CurriculumCfg) -> CurriculumCfg:
-    return dataclasses.replace(curriculum, remove_harness=None)
-
-
-@configclass
-class G1VelocityHeightTeacherEnvCfg(ManagerBasedRLEnvCfg):
-    """AGILE `G1LowerVelocityHeightEnvCfg` (Velocity-Height-G1-v0): the privileged teacher, with the harness."""
-
-    num_envs = 4096
-    decimation = 4  # 50 Hz policy, 200 Hz physics
-    episode_length_s = 30.0
-    scene = velocity_height_scene_cfg()
-    sim = velocity_sim_cfg(max_contacts_per_world=256)
-    commands = CommandsCfg()
-    actions = ActionsCfg()
-    observations = TeacherObservationsCfg()
-    rewards = RewardsCfg()
-    terminations = TerminationsCfg()
-    events = velocity_height_events_cfg()
-    curriculum = CurriculumCfg()
-
-
 @configclass
 class RecurrentStudentObservationsCfg:
     """The student's one step (its LSTM keeps the past), and the teacher's exact `policy` group as `teacher`."""
 
     policy = student_policy_obs_cfg()
     teacher = PrivilegedPolicyObsCfg()
-
-
-@configclass
-class G1VelocityHeightRecurrentStudentEnvCfg(ManagerBasedRLEnvCfg):
-    """Velocity-Height-G1-Student-Recurrent-v0: the teacher's MDP without the harness, distilled into an LSTM."""
-
-    num_envs = 4096
-    decimation = 4
-    episode_length_s = 30.0
-    scene = velocity_height_scene_cfg()
-    sim = velocity_sim_cfg(max_contacts_per_world=256)
-    commands = CommandsCfg()
-    actions = without_harness(ActionsCfg())
-    observations = RecurrentStudentObservationsCfg()
-    rewards = RewardsCfg()
-    terminations = TerminationsCfg()
-    events = velocity_height_events_cfg()
-    curriculum = without_harness_curriculum(CurriculumCfg())
 
 
 STUDENT_HISTORY_LENGTH = 5
@@ -329,25 +284,6 @@ class HistoryStudentObservationsCfg:
 
 
 @configclass
-class G1VelocityHeightHistoryStudentEnvCfg(ManagerBasedRLEnvCfg):
-    """Velocity-Height-G1-Student-History-v0: the teacher's MDP without the harness, distilled into an MLP on
-    5 steps of history."""
-
-    num_envs = 4096
-    decimation = 4
-    episode_length_s = 30.0
-    scene = velocity_height_scene_cfg()
-    sim = velocity_sim_cfg(max_contacts_per_world=256)
-    commands = CommandsCfg()
-    actions = without_harness(ActionsCfg())
-    observations = HistoryStudentObservationsCfg()
-    rewards = RewardsCfg()
-    terminations = TerminationsCfg()
-    events = velocity_height_events_cfg()
-    curriculum = without_harness_curriculum(CurriculumCfg())
-
-
-@configclass
 class HistoryObservationsCfg:
     """PPO without a teacher: the history student's `policy` group, the teacher's privileged critic."""
 
@@ -355,21 +291,38 @@ class HistoryObservationsCfg:
     critic = PrivilegedCriticObsCfg()
 
 
-@configclass
-class G1VelocityHeightHistoryEnvCfg(ManagerBasedRLEnvCfg):
+def velocity_height_env_cfg(observations, harness: bool) -> ManagerBasedRLEnvCfg:
+    """The task's MDP with these observation groups; with or without the training-only harness (and the
+    curriculum that removes it). 200 Hz physics, 50 Hz policy, 30 s episodes."""
+    actions, curriculum = ActionsCfg(), CurriculumCfg()
+    if not harness:
+        actions = dataclasses.replace(actions, harness=None)
+        curriculum = dataclasses.replace(curriculum, remove_harness=None)
+    return ManagerBasedRLEnvCfg(
+        num_envs=4096, decimation=4, episode_length_s=30.0,
+        scene=velocity_height_scene_cfg(), sim=velocity_sim_cfg(max_contacts_per_world=256),
+        commands=CommandsCfg(), actions=actions, observations=observations, rewards=RewardsCfg(),
+        terminations=TerminationsCfg(), events=velocity_height_events_cfg(), curriculum=curriculum)
+
+
+def teacher_env_cfg() -> ManagerBasedRLEnvCfg:
+    """AGILE `G1LowerVelocityHeightEnvCfg` (Velocity-Height-G1-v0): the privileged teacher, with the harness."""
+    return velocity_height_env_cfg(TeacherObservationsCfg(), harness=True)
+
+
+def recurrent_student_env_cfg() -> ManagerBasedRLEnvCfg:
+    """Velocity-Height-G1-Student-Recurrent-v0: the teacher's MDP without the harness, distilled into an LSTM."""
+    return velocity_height_env_cfg(RecurrentStudentObservationsCfg(), harness=False)
+
+
+def history_student_env_cfg() -> ManagerBasedRLEnvCfg:
+    """Velocity-Height-G1-Student-History-v0: the teacher's MDP without the harness, distilled into an MLP on
+    5 steps of history."""
+    return velocity_height_env_cfg(HistoryStudentObservationsCfg(), harness=False)
+
+
+def history_env_cfg() -> ManagerBasedRLEnvCfg:
     """Velocity-Height-G1-History-v0 (AGILE V1.3 `G1VelocityHeightHistoryEnvCfg`): the teacher's MDP, harness
     and harness curriculum included (PPO learns from scratch as the teacher does), on the student's
     observations."""
-
-    num_envs = 4096
-    decimation = 4
-    episode_length_s = 30.0
-    scene = velocity_height_scene_cfg()
-    sim = velocity_sim_cfg(max_contacts_per_world=256)
-    commands = CommandsCfg()
-    actions = ActionsCfg()
-    observations = HistoryObservationsCfg()
-    rewards = RewardsCfg()
-    terminations = TerminationsCfg()
-    events = velocity_height_events_cfg()
-    curriculum = CurriculumCfg()
+    return velocity_height_env_cfg(HistoryObservationsCfg(), harness=True)
