@@ -28,9 +28,42 @@ def height_command_sensor(env, command_name: str) -> str | None:
     return term.cfg.height_sensor_name if term.command.shape[1] >= 4 else None
 
 
+SPEED_BIN_EDGES_MPS = (0.05, 0.25, 0.5, 0.75, 1.0)
+"""Bins of the commanded planar speed |(vx, vy)| for the velocity error by command: [0, 0.05) is standing still."""
+HEIGHT_BIN_EDGES_M = (0.45, 0.5, 0.55, 0.6, 0.65, 0.7)
+"""Bins of the commanded base height for the height error by command."""
+
+
+class ErrorByCommand:
+    """A tracking error summed per bin of a commanded value over the steps alive, on the device (no host sync
+    per step): the error as a function of what was asked."""
+
+    def __init__(self, edges: tuple[float, ...], device):
+        import torch
+
+        self.edges = edges
+        self.edges_t = torch.tensor(edges, device=device)
+        self.error_sum = torch.zeros(len(edges) + 1, device=device)
+        self.steps = torch.zeros(len(edges) + 1, device=device)
+
+    def add(self, commanded, error, alive) -> None:
+        import torch
+
+        bins = torch.bucketize(commanded, self.edges_t, right=True)
+        self.error_sum.index_add_(0, bins, error * alive)
+        self.steps.index_add_(0, bins, alive)
+
+    def rows(self) -> list[dict]:
+        """[{"command": [low, high], "error": mean, "steps": n}] for the bins that saw a step (high None: open)."""
+        bounds = [0.0, *self.edges, None]
+        return [{"command": [bounds[i], bounds[i + 1]], "error": float(e / n), "steps": int(n)}
+                for i, (e, n) in enumerate(zip(self.error_sum.tolist(), self.steps.tolist())) if n > 0]
+
+
 def evaluate_per_env(env, policy, num_episodes: int, command_name: str = "base_velocity", recorders=()) -> dict:
     """Sums per env over `num_episodes` episodes of every env: (N,) tensors of tracking errors over the steps
-    alive, steps alive, episodes ended, falls and ended episodes' lengths; and each reward term's total."""
+    alive, steps alive, episodes ended, falls and ended episodes' lengths; each reward term's total; and the
+    errors by commanded speed (and height)."""
     import torch
 
     from agile.rl_env.mdp import base_height_above_ground
@@ -46,6 +79,8 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str = "base_v
     term_sums = {name: torch.zeros((), device=env.device) for name in env.reward_manager.weights}
     robot = env.scene[env.action_manager.policy_entity_name()]  # the robot the policy drives
     height_sensor = height_command_sensor(env, command_name)
+    by_speed = ErrorByCommand(SPEED_BIN_EDGES_MPS, env.device)
+    by_height = ErrorByCommand(HEIGHT_BIN_EDGES_M, env.device)
     obs, _ = env.reset()
     with torch.inference_mode():
         for step in range(num_episodes * env.max_episode_length):
@@ -55,11 +90,14 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str = "base_v
                 recorder.record(env, step * env.step_dt)
             done = terminated | truncated
             alive = (~done).float()  # the state of a reset env is its new episode's first state
-            sums["lin_vel_error_mps"] += torch.linalg.norm(command[:, :2] - robot.root_lin_vel_b[:, :2], dim=1) * alive
+            lin_vel_error = torch.linalg.norm(command[:, :2] - robot.root_lin_vel_b[:, :2], dim=1)
+            sums["lin_vel_error_mps"] += lin_vel_error * alive
+            by_speed.add(torch.linalg.norm(command[:, :2], dim=1), lin_vel_error, alive)
             sums["ang_vel_error_radps"] += (command[:, 2] - robot.root_ang_vel_b[:, 2]).abs() * alive
             if height_sensor is not None:
-                height_m = base_height_above_ground(env, sensor_name=height_sensor)
-                sums["base_height_error_m"] += (command[:, 3] - height_m).abs() * alive
+                height_error = (command[:, 3] - base_height_above_ground(env, sensor_name=height_sensor)).abs()
+                sums["base_height_error_m"] += height_error * alive
+                by_height.add(command[:, 3], height_error, alive)
             sums["steps_alive"] += alive
             for name in term_sums:
                 term_sums[name] += env.reward_manager.step_reward[name].sum()
@@ -70,8 +108,11 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str = "base_v
             sums["falls"] += terminated.float()
             for name in failure_terms:  # which failure ended the episode (several can at once)
                 sums[f"ended_by/{name}"] += terminations.term_dones[name].float()
+    by_command = {"lin_vel_error_mps_by_speed_mps": by_speed.rows()}
+    if height_sensor is not None:
+        by_command["base_height_error_m_by_height_m"] = by_height.rows()
     return {"sums": sums, "reward_totals": term_sums, "steps": num_episodes * env.max_episode_length,
-            "has_height_command": height_sensor is not None}
+            "has_height_command": height_sensor is not None, "error_by_command": by_command}
 
 
 def summarise(sums: dict, step_dt: float, has_height_command: bool, mask=None) -> dict:
@@ -100,6 +141,7 @@ def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity"
                **summarise(result["sums"], env.step_dt, result["has_height_command"])}
     metrics["reward_per_step"] = {name: float(v) / (env.num_envs * result["steps"])
                                   for name, v in result["reward_totals"].items()}
+    metrics["error_by_command"] = result["error_by_command"]
     return metrics
 
 

@@ -130,7 +130,42 @@ def plot_results(results: list[dict], out_dir: str) -> list[str]:
         fig.savefig(os.path.join(out_dir, name), dpi=110)
         plt.close(fig)
         names.append(name)
+        names.append(plot_error_by_command(r, out_dir, plt))
     return names
+
+
+def bin_label(bounds: list) -> str:
+    low, high = bounds
+    return f">= {low:g}" if high is None else f"{low:g}-{high:g}"
+
+
+ERROR_BY_COMMAND_AXES = {
+    "lin_vel_error_mps_by_speed_mps": ("lin_vel_error_mps", "commanded planar speed [m/s]", "velocity error [m/s]"),
+    "base_height_error_m_by_height_m": ("base_height_error_m", "commanded base height [m]", "height error [m]"),
+}
+"""eval.py's error-by-command keys: (the metric it splits, x label, y label)."""
+
+
+def plot_error_by_command(result: dict, out_dir: str, plt) -> str:
+    """One PNG of a task's tracking errors against what was commanded (bars: mean error per bin of the commanded
+    speed, and of the commanded height for a height command); its file name."""
+    panels = {key: rows for key, rows in result["error_by_command"].items() if rows}
+    fig, axes = plt.subplots(1, len(panels), figsize=(5 * len(panels), 3.4), squeeze=False)
+    for ax, (key, rows) in zip(axes[0], panels.items()):
+        metric, x_label, y_label = ERROR_BY_COMMAND_AXES[key]
+        ax.bar(range(len(rows)), [row["error"] for row in rows])
+        ax.set_xticks(range(len(rows)), [bin_label(row["command"]) for row in rows], fontsize=8)
+        ax.set_xlabel(x_label)
+        ax.set_ylabel(y_label)
+        if metric in result["criteria"]:
+            ax.axhline(result["criteria"][metric], color="r", label="maximum (of the mean over all commands)")
+            ax.legend(fontsize=7)
+    fig.suptitle(f"{result['task']}: tracking error by command")
+    fig.tight_layout()
+    name = f"{result['task']}_error_by_command.png"
+    fig.savefig(os.path.join(out_dir, name), dpi=110)
+    plt.close(fig)
+    return name
 
 
 def main(argv=None) -> int:

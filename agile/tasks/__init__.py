@@ -56,9 +56,10 @@ def pretrained_policy(task: str) -> Path | None:
 
 def pretrained_policy_conditions(task: str) -> tuple[str, list[str]]:
     """(what the shipped policy was trained on, the config overrides `env.<field>=<value>` that give that
-    env) from agile/data/policy/conditions.yaml; ("", []) when it was trained on the task as registered."""
+    env) from agile/data/policy/conditions.yaml, keyed by the policy file's name (two IDs of one task share
+    its entry); ("", []) when it was trained on the task as registered."""
     with open(PRETRAINED_CONDITIONS) as f:
-        spec = yaml.safe_load(f).get(task)
+        spec = yaml.safe_load(f).get(task_spec(task).kwargs.get("shipped_policy", task))
     if spec is None:
         return "", []
     return spec["trained_on"], list(spec["env_overrides"])

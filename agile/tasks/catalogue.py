@@ -84,8 +84,9 @@ def catalogue() -> list[TaskEntry]:
 
 
 def evaluated_tasks() -> list[TaskEntry]:
-    """The tasks eval_all.py evaluates: trainable or distilled, with a shipped policy."""
-    return [e for e in catalogue() if e.kind in EVALUATED_KINDS and e.policy is not None]
+    """The tasks eval_all.py evaluates: trainable or distilled, with a shipped policy; a second ID of one task
+    (sharing its policy file, e.g. Velocity-Height-G1-v0 = -Teacher-v0) is evaluated once, under the file's name."""
+    return [e for e in catalogue() if e.kind in EVALUATED_KINDS and e.policy is not None and e.policy.stem == e.task]
 
 
 def missed_criteria(metrics: dict, criteria: dict) -> list[str]:
