@@ -67,15 +67,30 @@ def test_to_dict_names_functions():
     assert d["inner"] == {"weight": 1.0, "names": [".*"]}
 
 
-@pytest.mark.parametrize("task", ["Velocity-G1-History-v0"])
+def _tasks_with_conditions() -> list[str]:
+    import agile.tasks
+
+    return [task for task in agile.tasks.registered_tasks() if agile.tasks.pretrained_policy_conditions(task)[1]]
+
+
+@pytest.mark.parametrize("task", _tasks_with_conditions())
 def test_shipped_policy_conditions_still_name_real_fields(task):
     import agile.tasks
 
     trained_on, overrides = agile.tasks.pretrained_policy_conditions(task)
-    assert trained_on and overrides
+    assert trained_on and agile.tasks.pretrained_policy(task) is not None
     env_cfg, agent_cfg = agile.tasks.load_cfgs(task)
     apply_overrides({"env": env_cfg, "agent": agent_cfg}, overrides)  # a renamed field raises ConfigError
-    assert env_cfg.scene.terrain is None and env_cfg.actions.random_pos is None
+    assert env_cfg.scene.terrain is None  # every shipped policy with conditions learned on flat ground
+
+
+def test_shipped_policy_conditions_follow_the_policy_file():
+    import agile.tasks
+
+    assert "Velocity-G1-History-v0" in _tasks_with_conditions()
+    # Velocity-Height-G1-v0 runs the policy shipped as Velocity-Height-G1-Teacher-v0, so its conditions too
+    assert (agile.tasks.pretrained_policy_conditions("Velocity-Height-G1-v0")
+            == agile.tasks.pretrained_policy_conditions("Velocity-Height-G1-Teacher-v0") != ("", []))
 
 
 def test_a_policy_trained_on_the_registered_task_has_no_conditions():

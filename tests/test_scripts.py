@@ -281,3 +281,50 @@ def test_learning_curve_resumption_replaces_the_abandoned_branch():
     assert steps == [0, 1, 2, 3, 4]
     assert values == [0.0, 10.0, 20.0, 30.0, 40.0]
     assert join_resumed([run, [(4, 4.0)]]) == ([0, 1, 2, 3, 4], [0.0, 1.0, 2.0, 3.0, 4.0])
+
+
+def _write_run(folder, values: dict[str, list[float]], start: int = 0) -> None:
+    from torch.utils.tensorboard import SummaryWriter
+
+    writer = SummaryWriter(log_dir=str(folder))
+    for tag, series in values.items():
+        for i, value in enumerate(series):
+            writer.add_scalar(tag, value, start + i)
+    writer.close()
+
+
+def test_learning_curve_reads_run_folders_and_agent_groups(tmp_path):
+    from plot_learning_curve import curves_of, read_run
+
+    _write_run(tmp_path / "run_a", {"Train/mean_reward": [1.0, 2.0, 3.0]})
+    _write_run(tmp_path / "run_b", {"Train/mean_reward": [20.0, 30.0]}, start=1)  # resumed from iteration 1
+    [(label, files)] = curves_of(None, [str(tmp_path / "run_a")])
+    assert label == "run_a" and len(files) == 1
+    [(label, files)] = curves_of("joined", [str(tmp_path / "run_a"), str(tmp_path / "run_b")])
+    assert read_run(files)["Train/mean_reward"] == ([0, 1, 2], [1.0, 20.0, 30.0])
+    _write_run(tmp_path / "marl" / "g1", {"Loss/value_function": [0.5]})  # a multi-agent run: a folder per group
+    _write_run(tmp_path / "marl" / "t1", {"Loss/value_function": [0.7]})
+    curves = curves_of(None, [str(tmp_path / "marl")])
+    assert [label for label, _ in curves] == ["marl/g1", "marl/t1"]
+    assert read_run(curves[1][1])["Loss/value_function"] == ([0], [pytest.approx(0.7)])
+
+
+def test_learning_curve_refuses_a_folder_without_logs(tmp_path):
+    (tmp_path / "empty").mkdir()
+    result = subprocess.run([sys.executable, str(Path(__file__).resolve().parents[1] / "scripts" / "plot_learning_curve.py"), str(tmp_path / "empty")],
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode != 0 and "no tensorboard event files" in result.stderr
+
+
+def test_error_by_command_bins_hand_values():
+    import torch
+    from eval import ErrorByCommand
+
+    by_speed = ErrorByCommand((0.05, 0.5), "cpu")
+    commanded = torch.tensor([0.0, 0.3, 0.4, 0.7])
+    by_speed.add(commanded, torch.tensor([0.1, 0.2, 0.4, 0.6]), alive=torch.tensor([1.0, 1.0, 1.0, 0.0]))
+    by_speed.add(commanded, torch.tensor([0.3, 0.2, 0.4, 0.8]), alive=torch.ones(4))
+    rows = by_speed.rows()
+    assert [row["command"] for row in rows] == [[0.0, 0.05], [0.05, 0.5], [0.5, None]]
+    assert [row["steps"] for row in rows] == [2, 4, 1]  # the dead env's first step is not counted
+    assert [row["error"] for row in rows] == pytest.approx([0.2, 0.3, 0.8])
