@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import sys
 
 from utils import cli, multi_agent
 
@@ -124,6 +125,12 @@ def main(argv=None) -> None:
     parser.add_argument("--inject_nan_actions", type=float, nargs=2, default=None, metavar=("SHARE", "EVERY"),
                         help="reliability runs: NaN actions for a SHARE of the envs (e.g. 0.01) at the start of every "
                         "EVERY-th iteration; the env ends and counts them (Episode_Termination/invalid_action)")
+    parser.add_argument("--progress", choices=["auto", "bar", "log"], default="auto",
+                        help="bar: one line with the ETA, mean reward and episode length, rsl-rl's full block every "
+                        "--full_log_every iterations; log: the full block every iteration; auto (default): bar on a "
+                        "terminal, log otherwise (log files)")
+    parser.add_argument("--full_log_every", type=int, default=100, metavar="N",
+                        help="with the bar: rsl-rl's full block every N iterations (0: never)")
     parser.add_argument("--teacher", default=None, metavar="PATH",
                         help="distillation tasks: the teacher, a PPO checkpoint of the teacher task or its TorchScript "
                         "export (default: the policy agile ships for the teacher task)")
@@ -171,6 +178,7 @@ def main(argv=None) -> None:
 
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
     from agile.rl_env.rsl_rl.checkpoints import restore_runner, runner_class
+    from agile.rl_env.rsl_rl.progress import show_progress
     from agile.rl_env.rsl_rl.distillation import load_teacher
 
     env = cli.make_env(args.task, env_cfg, device)
@@ -188,6 +196,7 @@ def main(argv=None) -> None:
     with cli.quiet_stdout():
         runner = runner_class(agent_cfg)(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
     runner.logger.git_status_repos = cli.git_repos()
+    show_progress(runner, args.progress, args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
     if resume_path:
         print(f"[agile] resuming from {resume_path}")
         restore_runner(runner, resume_contents)  # loaded on the CPU: a GPU run can be resumed on another device

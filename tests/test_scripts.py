@@ -328,3 +328,15 @@ def test_error_by_command_bins_hand_values():
     assert [row["command"] for row in rows] == [[0.0, 0.05], [0.05, 0.5], [0.5, None]]
     assert [row["steps"] for row in rows] == [2, 4, 1]  # the dead env's first step is not counted
     assert [row["error"] for row in rows] == pytest.approx([0.2, 0.3, 0.8])
+
+
+def test_train_progress_bar_shows_the_eta_and_a_full_block_every_n_iterations(tmp_path):
+    code, out, err = run_split("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations",
+                               "3", "--device", "cpu", "--log_root", str(tmp_path), "--progress", "bar",
+                               "--full_log_every", "2", "agent.num_steps_per_env=4")
+    assert code == 0, out + err
+    bar = err.replace("\r", "\n").splitlines()
+    assert any("training: 100%" in line and "3/3" in line and "iteration=2" in line for line in bar), err
+    assert any("training:  33%" in line and "<" in line for line in bar), err  # elapsed<remaining: the ETA
+    blocks = [line for line in out.splitlines() if "Learning iteration" in line]
+    assert len(blocks) == 1 and "Learning iteration 1/3" in blocks[0], out  # the 2nd of 3 iterations only
