@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import math
+
 import torch
 
-from agile.rl_env.managers import SceneEntityCfg
+from agile.rl_env.managers import ManagerTermBase, SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
 from agile.rl_env.mdp.rewards import _body_projected_gravity
 
@@ -51,3 +53,47 @@ def link_distance(env, min_distance_m: float, max_distance_m: float | None = Non
     if max_distance_m is None:
         return too_close
     return too_close | (distance_m > max_distance_m)
+
+
+class no_height_progress(ManagerTermBase):  # noqa: N801 (AGILE's name)
+    """AGILE stand-up: the episode ends when the root height above the terrain has not risen by at least
+    `min_height_gain_m` (AGILE: 0.2 m) within `time_window_s` (AGILE: 10 s) of the episode's start.
+
+    The height (`base_height_above_ground`, terrain-relative under the height scanner `sensor_name`) is recorded
+    at the episode's first step, and its maximum since. From the step where the episode time
+    (episode_length_buf · step_dt) reaches `time_window_s` on, an env ends while max - start < min_height_gain_m
+    and its current height is below `standing_height_m`: a robot that starts standing (and so cannot rise)
+    is not ended for staying up. Free of host syncs, so it runs inside a captured step.
+    """
+
+    def __init__(self, cfg, env):
+        super().__init__(cfg, env)
+        params = cfg.params
+        if not params.get("time_window_s", 10.0) > 0.0:
+            raise ValueError(f"no_height_progress: time_window_s must be positive, got {params['time_window_s']}")
+        if not params.get("min_height_gain_m", 0.2) > 0.0:
+            raise ValueError(f"no_height_progress: min_height_gain_m must be positive, got "
+                             f"{params['min_height_gain_m']}")
+        n = env.num_envs
+        self.start_height_m = torch.zeros(n, device=env.device)
+        """Root height above the terrain at the episode's first step."""
+        self.max_height_m = torch.zeros(n, device=env.device)
+        """Highest root height above the terrain since the episode's first step."""
+        self.restart = torch.ones(n, dtype=torch.bool, device=env.device)
+        """Envs reset since the last call: the termination manager resets terms before the robot is put back,
+        so the new episode's start height is read at its first step, the next call."""
+
+    def reset(self, env_mask) -> None:
+        self.restart |= env_mask
+
+    def __call__(self, env, standing_height_m: float, min_height_gain_m: float = 0.2, time_window_s: float = 10.0,
+                 sensor_name: str | None = None, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
+        height_m = base_height_above_ground(env, asset_cfg, sensor_name)
+        self.start_height_m.copy_(torch.where(self.restart, height_m, self.start_height_m))
+        self.max_height_m.copy_(torch.where(self.restart, height_m, torch.maximum(self.max_height_m, height_m)))
+        self.restart.zero_()
+        # whole steps, so that the window ends at an exact step (10 s / 0.02 s is 500 steps, not 500.0000001)
+        window_steps = math.ceil(time_window_s / env.step_dt - 1e-6)
+        window_over = env.episode_length_buf >= window_steps
+        no_progress = self.max_height_m - self.start_height_m < min_height_gain_m
+        return window_over & no_progress & (height_m < standing_height_m)
