@@ -244,6 +244,17 @@ class ManagerBasedRLEnv(gym.Env):
         obs = self.observation_manager.compute()
         return obs, reward, terminated, time_outs
 
+    def simulate(self, action: torch.Tensor, num_steps: int) -> None:
+        """Run `num_steps` env steps of `action` with the actions, actuators, physics and sensors only: no
+        terminations, rewards, resets, commands, events or curricula, and episode clocks stand still. For collecting
+        states before learning (the fallen-state dataset: robots dropped and left to settle wherever they land)."""
+        action = action.to(self.device)
+        for _ in range(num_steps):
+            self.action_manager.process_action(action)
+            self.action_manager.apply_action()
+            self.sim.step(self.cfg.decimation)
+            self.scene.update_after_physics()
+
     def close(self):
         pass
 

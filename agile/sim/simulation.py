@@ -78,6 +78,8 @@ class Simulation:
             ground_shape = world.add_ground_plane(cfg=ground_cfg)
         else:
             self.terrain = load_or_generate_terrain(scene_cfg.terrain)
+            self.terrain_cell_size_m = float(scene_cfg.terrain.size_m)
+            """The side of one terrain cell (sub-terrain) [m]."""
             ground_shape = world.add_shape_heightfield(heightfield=terrain_heightfield(self.terrain), cfg=ground_cfg,
                                                        label="terrain")
         self.model = world.finalize(device=self.wp_device)
@@ -275,6 +277,16 @@ class Simulation:
         if self.terrain is None:
             raise RuntimeError("terrain levels need SimCfg.terrain (this world has a flat ground plane)")
         self.terrain_levels.copy_(levels.clamp(0, self.max_terrain_level - 1))
+        self.env_origins.copy_(self.terrain_origins_m[self.terrain_levels, self.terrain_types])
+
+    def set_terrain_cells(self, levels: torch.Tensor, types: torch.Tensor, mask: torch.Tensor) -> None:
+        """Put the envs of `mask` (N,) on the cells (row `levels`, column `types`, both (N,)) and update
+        `env_origins` there; masked tensor math only (a reset from a state stored with its cell)."""
+        if self.terrain is None:
+            raise RuntimeError("terrain cells need SimCfg.terrain (this world has a flat ground plane)")
+        self.terrain_levels.copy_(torch.where(mask, levels.clamp(0, self.max_terrain_level - 1), self.terrain_levels))
+        self.terrain_types.copy_(torch.where(mask, types.clamp(0, self.terrain_origins_m.shape[1] - 1),
+                                             self.terrain_types))
         self.env_origins.copy_(self.terrain_origins_m[self.terrain_levels, self.terrain_types])
 
     @contextlib.contextmanager

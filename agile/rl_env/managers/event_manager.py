@@ -34,6 +34,12 @@ class EventManager:
         low, high = term.interval_range_s
         return torch.rand(n, device=self.env.device) * (high - low) + low
 
+    def get_term(self, name: str):
+        """The event term `name` as built: a class term's instance (e.g. to hand it a dataset), else its function."""
+        if name not in self.funcs:
+            raise KeyError(f"no event term '{name}'; the event terms: {sorted(self.funcs)}")
+        return self.funcs[name]
+
     def terms(self, mode: str) -> list[str]:
         return [n for n, t in self.term_cfgs.items() if t.mode == mode]
 

@@ -8,3 +8,5 @@ from agile.rl_env.mdp.observations import *  # noqa: F401,F403
 from agile.rl_env.mdp.rewards import *  # noqa: F401,F403
 from agile.rl_env.mdp.rewards_velocity_height import *  # noqa: F401,F403
 from agile.rl_env.mdp.terminations import *  # noqa: F401,F403
+from agile.rl_env.fallen_states.reset import *  # noqa: F401,F403
+from agile.rl_env.mdp.rewards_stand_up import *  # noqa: F401,F403

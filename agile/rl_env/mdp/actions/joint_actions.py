@@ -66,6 +66,15 @@ class JointPositionAction(ActionTerm):
         self.raw_actions.masked_fill_(env_mask.unsqueeze(-1), 0.0)
 
 
+class RelativeJointPositionAction(JointPositionAction):
+    """Isaac Lab `RelativeJointPositionAction`: target = the joint's current position + action × scale (+ offset,
+    zero by default); `clip` bounds action × scale + offset, the step. A zero action holds the joints where they
+    are. The target is set once per env step from the position then (Isaac Lab re-reads it every physics step)."""
+
+    def apply_actions(self) -> None:
+        self.robot.joint_pos_target[:, self.joint_ids] = self.processed_actions + self.robot.joint_pos[:, self.joint_ids]
+
+
 @configclass
 class JointPositionActionCfg:
     """Isaac Lab semantics: `clip` bounds the processed target [rad], after scale and offset."""
@@ -77,3 +86,12 @@ class JointPositionActionCfg:
     use_default_offset: bool = True
     clip: tuple[float, float] | dict[str, tuple[float, float]] | None = None
     preserve_order: bool = False
+
+
+@configclass
+class RelativeJointPositionActionCfg(JointPositionActionCfg):
+    """Isaac Lab `RelativeJointPositionActionCfg` with `use_zero_offset=True`: the action is a step from where the
+    joints are."""
+
+    class_type: type = RelativeJointPositionAction
+    use_default_offset: bool = False
