@@ -293,7 +293,7 @@ def main(argv=None) -> None:
         for name, term in vars(env_cfg.events).items():
             if isinstance(term, EventTerm) and term.mode == "interval":
                 setattr(env_cfg.events, name, None)
-    env = cli.make_env(args.task, env_cfg, device)
+    env = cli.make_env(args.task, env_cfg, device, use_cache=not args.no_cache)
     from utils.recording import UsdRecorder, VideoRecorder
 
     recorders = []

@@ -47,6 +47,20 @@ def with_visual_meshes(env_cfg):
     return env_cfg
 
 
+def show_fallen_states(env_cfg, task: str) -> None:
+    """--validate_fallen_states: every reset from the fallen-state dataset (no standing share), one per second."""
+    from agile.rl_env.fallen_states import reset_from_fallen_dataset
+    from agile.rl_env.managers import EventTerm
+
+    resets = [term for term in vars(env_cfg.events).values()
+              if isinstance(term, EventTerm) and term.func is reset_from_fallen_dataset]
+    if not resets:
+        cli.fail(f"--validate_fallen_states: {task} has no reset event reset_from_fallen_dataset")
+    for term in resets:
+        term.params["standing_ratio"] = 0.0
+    env_cfg.episode_length_s = 1.0
+
+
 def main(argv=None) -> None:
     parser = cli.new_parser(__doc__)
     cli.add_common_args(parser)
@@ -67,6 +81,9 @@ def main(argv=None) -> None:
     parser.add_argument("--real_time", action="store_true", help="slow down to the control rate")
     parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
     parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
+    parser.add_argument("--validate_fallen_states", action="store_true",
+                        help="stand-up tasks: show the fallen-state dataset: every env starts fallen, a new state "
+                             "every second, zero actions (the joints hold where they lie)")
     cli.add_checkpoint_args(parser)
     args = cli.parse(parser, argv)
     if multi_agent.is_multi_agent(args.task):
@@ -83,14 +100,19 @@ def main(argv=None) -> None:
     num_steps = args.num_steps if args.num_steps is not None else (None if viewer_on else DEFAULT_HEADLESS_STEPS)
 
     checkpoint = args.checkpoint
-    if checkpoint is None and not args.sinusoidal and not slider_actions:
+    if args.validate_fallen_states and (checkpoint or args.sinusoidal):
+        cli.fail("--validate_fallen_states shows the dataset with zero actions: without --checkpoint or --sinusoidal")
+    if checkpoint is None and not args.sinusoidal and not slider_actions and not args.validate_fallen_states:
         checkpoint = cli.shipped_policy(args)
     contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint) if checkpoint and not args.sinusoidal \
         else None
     env_cfg, agent_cfg, device = cli.load_task(args)
     import torch
     env_cfg = inference_cfg(env_cfg)
-    env = cli.make_env(args.task, with_visual_meshes(env_cfg) if viewer_on else env_cfg, device)
+    if args.validate_fallen_states:
+        show_fallen_states(env_cfg, args.task)
+    env = cli.make_env(args.task, with_visual_meshes(env_cfg) if viewer_on else env_cfg, device,
+                       use_cache=not args.no_cache)
     policy = load_policy(contents, env, agent_cfg) if contents is not None else None
 
     viewer = sliders = None
@@ -101,7 +123,8 @@ def main(argv=None) -> None:
         if slider_actions:
             sliders = ActionSliders(viewer.server, env)
         print(f"[agile] viewer on {viewer.url} (Ctrl-C to stop)")
-    source = ("policy " + checkpoint if policy else "the GUI's sliders" if sliders else "sinusoidal test actions")
+    source = ("policy " + checkpoint if policy else "the GUI's sliders" if sliders else
+              "zero actions" if args.validate_fallen_states else "sinusoidal test actions")
     print(f"[agile] {args.task}: {env.num_envs} envs on {device}, {source}")
 
     recorder = None
@@ -138,6 +161,8 @@ def main(argv=None) -> None:
                     actions = policy(obs)
                 elif sliders is not None:
                     actions = sliders.actions()
+                elif args.validate_fallen_states:
+                    actions = torch.zeros(env.num_envs, env.action_manager.total_action_dim, device=env.device)
                 else:
                     actions = sinusoidal_actions(step, env.step_dt, env.num_envs, env.action_manager.total_action_dim,
                                                  env.device)

@@ -32,7 +32,7 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
 
     video_cfg = inference_cfg(copy.deepcopy(env_cfg))
     video_cfg.num_envs = 1
-    video_env = cli.make_env(args.task, video_cfg, device)
+    video_env = cli.make_env(args.task, video_cfg, device, use_cache=not args.no_cache)
     os.makedirs(os.path.join(log_dir, "videos"), exist_ok=True)
     done = 0
     while done < iterations:
@@ -181,7 +181,7 @@ def main(argv=None) -> None:
     from agile.rl_env.rsl_rl.progress import show_progress
     from agile.rl_env.rsl_rl.distillation import load_teacher
 
-    env = cli.make_env(args.task, env_cfg, device)
+    env = cli.make_env(args.task, env_cfg, device, use_cache=not args.no_cache)
     print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
           f"obs {env.observation_manager.group_dims}, actions {env.action_manager.total_action_dim}")
     log_dir = cli.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)

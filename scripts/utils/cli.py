@@ -120,6 +120,9 @@ def add_common_args(parser: argparse.ArgumentParser) -> None:
                              "agent.actor.rnn_hidden_dim=... etc.; needed again to play, eval or export the checkpoint")
     parser.add_argument("--verbose", action="store_true",
                         help="show Warp's kernel loads, rsl-rl's model printout and library warnings")
+    parser.add_argument("--no_cache", action="store_true",
+                        help="tasks with a pre-learn step (stand-up: the fallen-state dataset): collect again instead "
+                             "of loading the disk cache (the new collection replaces it)")
     parser.add_argument("overrides", nargs="*", help=OVERRIDE_HELP)
 
 
@@ -203,19 +206,25 @@ def load_task(args) -> tuple:
     return env_cfg, agent_cfg, device
 
 
-def make_env(task: str, env_cfg, device: str):
-    """The task's env (a ManagerBasedRLEnv, or a MultiAgentEnv for a multi-agent config); a config error ends the
-    script in one line."""
+def make_env(task: str, env_cfg, device: str, use_cache: bool = True):
+    """The task's env (a ManagerBasedRLEnv, or a MultiAgentEnv for a multi-agent config), after the task's pre-learn
+    step where its registration names one (`pre_learn_entry_point`, e.g. the stand-up tasks' fallen-state dataset;
+    `use_cache=False`: collect again); a config error ends the script in one line."""
+    import agile.tasks
     from agile.marl import MultiAgentEnv, MultiAgentEnvCfg
     from agile.rl_env import ManagerBasedRLEnv
-    from agile.utils.config import ConfigError
+    from agile.utils.config import ConfigError, load_entry_point
 
     print(f"[agile] building {task}: {env_cfg.num_envs} envs on {device} (the first run on a machine compiles "
           f"the Warp kernels, a minute or two)", flush=True)
     env_class = MultiAgentEnv if isinstance(env_cfg, MultiAgentEnvCfg) else ManagerBasedRLEnv
     try:
-        return env_class(env_cfg, task_name=task, device=device)
-    except ConfigError as err:
+        env = env_class(env_cfg, task_name=task, device=device)
+        pre_learn = agile.tasks.task_spec(task).kwargs.get("pre_learn_entry_point")
+        if pre_learn is not None:
+            load_entry_point(pre_learn)(env, task, use_cache=use_cache)
+        return env
+    except (ConfigError, ValueError) as err:
         fail(str(err))
 
 

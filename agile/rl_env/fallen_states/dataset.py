@@ -39,6 +39,9 @@ class FallenStateDatasetCfg:
     root_lin_vel_range_mps: float = 5.0
     root_ang_vel_range_radps: float = 5.0
     joint_vel_range_radps: float = 1.0
+    max_root_speed_mps: float = 0.5
+    """A state whose root still moves faster than this after settling is dropped (not at rest: e.g. thrown by a
+    bad terrain contact); the collection reports how many."""
     cell_margin_m: float = 0.5
     """A stored root's xy stays this far inside its cell (AGILE: half the cell minus 0.5 m)."""
     use_cache: bool = True
@@ -147,10 +150,15 @@ def collect_fallen_states(env, cfg: FallenStateDatasetCfg, robot_name: str = "ro
             pieces["terrain_type"].append(env.sim.terrain_types.clone())
     env.sim.set_terrain_levels(torch.zeros(env.num_envs, dtype=torch.long, device=env.device))
     states = {name: torch.cat(values) for name, values in pieces.items()}
-    finite = torch.ones(states["level"].shape, dtype=torch.bool, device=env.device)
+    keep = torch.ones(states["level"].shape, dtype=torch.bool, device=env.device)
     for name in ("root_pos_env_m", "root_quat_xyzw", "root_vel_w", "joint_pos_rad", "joint_vel_radps"):
-        finite &= torch.isfinite(states[name]).all(dim=1)
-    return {name: value[finite] for name, value in states.items()}  # a world that blew up leaves no state
+        keep &= torch.isfinite(states[name]).all(dim=1)  # a world that blew up leaves no state
+    keep &= torch.linalg.norm(states["root_vel_w"][:, :3], dim=1) <= cfg.max_root_speed_mps
+    dropped = int((~keep).sum())
+    if dropped:
+        print(f"[agile] fallen states: {dropped} of {keep.numel()} dropped (not at rest after {cfg.settle_time_s} s, "
+              f"root faster than {cfg.max_root_speed_mps} m/s, or not finite)", flush=True)
+    return {name: value[keep] for name, value in states.items()}
 
 
 def load_or_collect(env, cfg: FallenStateDatasetCfg, task_name: str, robot_name: str = "robot") -> FallenStates:

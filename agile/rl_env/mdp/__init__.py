@@ -10,3 +10,4 @@ from agile.rl_env.mdp.rewards_velocity_height import *  # noqa: F401,F403
 from agile.rl_env.mdp.terminations import *  # noqa: F401,F403
 from agile.rl_env.fallen_states.reset import *  # noqa: F401,F403
 from agile.rl_env.mdp.rewards_stand_up import *  # noqa: F401,F403
+from agile.rl_env.mdp.curriculums_stand_up import *  # noqa: F401,F403

@@ -40,6 +40,25 @@ def _swap_side(name: str) -> str:
     return _SIDE.sub(swap, name)
 
 
+_SIDE_LETTER = re.compile(r"(?<=[A-Z])([LR])(?=\d)")
+"""A side as one capital letter between a capital and a digit: T1's arm links AL1..AL3 / AR1..AR3."""
+
+
+def body_mirror(body_names: list[str]) -> list[int]:
+    """The partner index of each body: "left"/"right" swapped in its name, else a side letter (AL1 <-> AR1); a body
+    with neither is its own partner (trunk, head, waist)."""
+    index = {n: i for i, n in enumerate(body_names)}
+    perm = []
+    for name in body_names:
+        partner = _swap_side(name)
+        if partner == name:
+            partner = _SIDE_LETTER.sub(lambda m: "R" if m.group(1) == "L" else "L", name)
+        if partner not in index:
+            raise ValueError(f"body '{name}' has no mirror body '{partner}'. Bodies: {body_names}")
+        perm.append(index[partner])
+    return perm
+
+
 def joint_mirror(joint_names: list[str], joint_axes: np.ndarray) -> tuple[list[int], list[float]]:
     """(partner index, sign) per joint. joint_axes: (J, 3) joint axes in their local frames."""
     index = {n: i for i, n in enumerate(joint_names)}
@@ -134,6 +153,11 @@ class GroupMirror:
             asset: SceneEntityCfg = term.params["asset_cfg"]
             ids = index_list(asset.joint_ids, env.scene[asset.name].num_joints)
             return _sub_mirror(ids, self.joint_perm, self.joint_sign, where)
+        if func is obs_terms.contact_force_norm:  # one magnitude per sensed body: the partner body's
+            sensor_cfg: SceneEntityCfg = term.params["sensor_cfg"]
+            sensor = env.scene[sensor_cfg.name]
+            names = [sensor.body_names[i] for i in index_list(sensor_cfg.body_ids, len(sensor.body_names))]
+            return body_mirror(names), [1.0] * len(names)
         if func is obs_terms.last_action and term.params.get("action_name") is None:
             return action_perm, action_sign
         raise ValueError(f"{where}: no mirror rule for '{func.__name__}'")

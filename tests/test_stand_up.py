@@ -1,0 +1,201 @@
+"""StandUp-T1 and its fallen-state dataset (issue 17): the cache key, the cache file's checks, collection (states
+at rest, inside their cells), the reset from the dataset, the relative joint action, pre_learn then one PPO
+iteration, and play.py --validate_fallen_states."""
+
+from __future__ import annotations
+
+import dataclasses
+import subprocess
+import sys
+import types
+from pathlib import Path
+
+import pytest
+import torch
+
+import agile.tasks
+from agile.rl_env.fallen_states import STATE_FIELDS, FallenStateDatasetCfg, cache
+from agile.rl_env.fallen_states.dataset import cache_inputs
+
+TASK = "StandUp-T1-v0"
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _key(env_cfg, num_envs: int = 4, dataset: FallenStateDatasetCfg | None = None) -> str:
+    env = types.SimpleNamespace(cfg=env_cfg, num_envs=num_envs)
+    return cache.cache_key(cache_inputs(env, dataset or FallenStateDatasetCfg(), "robot"))
+
+
+def test_cache_key_changes_with_each_input_and_nothing_else(tmp_path):
+    env_cfg, _ = agile.tasks.load_cfgs(TASK)
+    base = _key(env_cfg)
+    assert _key(agile.tasks.load_cfgs(TASK)[0]) == base  # rebuilt config, same key
+    assert _key(env_cfg, dataset=FallenStateDatasetCfg(cache_dir=str(tmp_path), use_cache=False)) == base
+    changed = {
+        "dataset": _key(env_cfg, dataset=FallenStateDatasetCfg(settle_time_s=3.0)),
+        "num_envs": _key(env_cfg, num_envs=8),
+    }
+    cfg = agile.tasks.load_cfgs(TASK)[0]
+    cfg.scene.terrain = dataclasses.replace(cfg.scene.terrain, num_rows=4)
+    changed["terrain"] = _key(cfg)
+    cfg = agile.tasks.load_cfgs(TASK)[0]
+    cfg.sim.physics_dt_s = 0.004
+    changed["physics_dt_s"] = _key(cfg)
+    cfg = agile.tasks.load_cfgs(TASK)[0]
+    cfg.actions.joint_pos.scale = 0.2
+    changed["actions"] = _key(cfg)
+    cfg = agile.tasks.load_cfgs(TASK)[0]
+    cfg.scene.entities["robot"].init_pos_m = (0.0, 0.0, 0.9)
+    changed["robot cfg"] = _key(cfg)
+    model_copy = tmp_path / "t1.xml"
+    model_copy.write_text(Path(cfg.scene.entities["robot"].model_file).read_text() + "\n<!-- edited -->\n")
+    cfg = agile.tasks.load_cfgs(TASK)[0]
+    cfg.scene.entities["robot"].model_file = str(model_copy)
+    changed["robot model file"] = _key(cfg)
+    assert all(key != base for key in changed.values()), changed
+    assert len(set(changed.values())) == len(changed)
+
+
+def test_a_cache_file_is_used_only_when_whole_and_made_for_the_key(tmp_path):
+    states = {name: torch.arange(6, dtype=torch.float32).reshape(3, 2) for name in STATE_FIELDS}
+    path = tmp_path / "states.pt"
+    cache.save_states(path, "abc", states)
+    loaded, why = cache.load_states(path, "abc", STATE_FIELDS)
+    assert why == "" and torch.equal(loaded["level"], states["level"])
+    assert not list(tmp_path.glob("*.tmp*"))  # written through a temporary file, renamed
+    assert cache.load_states(path, "other", STATE_FIELDS)[1].startswith("made for another")
+    assert cache.load_states(tmp_path / "missing.pt", "abc", STATE_FIELDS)[1] == "no cache file yet"
+    data = path.read_bytes()
+    (tmp_path / "truncated.pt").write_bytes(data[: len(data) // 2])
+    assert cache.load_states(tmp_path / "truncated.pt", "abc", STATE_FIELDS)[1].startswith("unreadable")
+    (tmp_path / "noise.pt").write_bytes(b"\x00garbage" * 100)
+    assert cache.load_states(tmp_path / "noise.pt", "abc", STATE_FIELDS)[1].startswith("unreadable")
+    torch.save({"actor_state_dict": {}}, tmp_path / "foreign.pt")  # e.g. a checkpoint under the cache's name
+    assert cache.load_states(tmp_path / "foreign.pt", "abc", STATE_FIELDS)[1] == "not a fallen-state cache"
+    cache.save_states(tmp_path / "partial.pt", "abc", {"level": states["level"]})
+    assert cache.load_states(tmp_path / "partial.pt", "abc", STATE_FIELDS)[1].startswith("incomplete")
+
+
+def _small_env_cfg(cache_dir: Path, num_rows: int = 2):
+    env_cfg, agent_cfg = agile.tasks.load_cfgs(TASK)
+    env_cfg.num_envs = 3
+    env_cfg.scene.terrain = dataclasses.replace(env_cfg.scene.terrain, num_rows=num_rows, num_cols=3)
+    env_cfg.events.reset_base.params["dataset"] = FallenStateDatasetCfg(cache_dir=str(cache_dir))
+    return env_cfg, agent_cfg
+
+
+@pytest.fixture(scope="module")
+def stand_up_env(tmp_path_factory):
+    """StandUp-T1 with 3 envs on 2 terrain rows, after its pre-learn hook: (env, agent cfg, cache dir, printed)."""
+    sys.path.insert(0, str(ROOT / "scripts"))
+    import contextlib
+    import io
+
+    from utils import cli
+
+    cache_dir = tmp_path_factory.mktemp("fallen_cache")
+    env_cfg, agent_cfg = _small_env_cfg(cache_dir)
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        env = cli.make_env(TASK, env_cfg, "cpu")
+    return env, agent_cfg, cache_dir, out.getvalue()
+
+
+def test_collected_states_lie_at_rest_inside_their_cells(stand_up_env):
+    env, _, cache_dir, printed = stand_up_env
+    assert "collected in" in printed and f"cached in {cache_dir}" in printed
+    states = env.event_manager.get_term("reset_base").states
+    t = states.tensors
+    dropped = int(printed.split(" dropped")[0].rsplit(": ", 1)[1].split(" of ")[0]) if " dropped" in printed else 0
+    assert len(states) == 3 * 1 * 2 - dropped and dropped <= 1  # 3 envs x 1 drop x 2 rows, minus those not at rest
+    half_cell = env.sim.terrain_cell_size_m / 2 - FallenStateDatasetCfg().cell_margin_m
+    assert (t["root_pos_env_m"][:, :2].abs() <= half_cell + 1e-6).all()
+    assert (t["root_pos_env_m"][:, 2] < 0.4).all()  # lying: the trunk far below its standing 0.65 m
+    assert (torch.linalg.norm(t["root_vel_w"][:, :3], dim=1) <= 0.5).all()  # settled after 2.5 s
+    assert torch.isclose(torch.linalg.norm(t["root_quat_xyzw"], dim=1), torch.ones(len(states))).all()
+    assert set(t["terrain_type"].tolist()) <= {0, 1, 2} and t["level"].tolist() == sorted(t["level"].tolist())
+
+
+def test_reset_draws_fallen_states_at_the_env_row_and_a_standing_share(stand_up_env):
+    env, _, _, _ = stand_up_env
+    term = env.event_manager.get_term("reset_base")
+    robot = env.scene["robot"]
+    all_envs = torch.ones(env.num_envs, dtype=torch.bool)
+    env.sim.set_terrain_levels(torch.tensor([1, 1, 0]))
+    term(env, all_envs, standing_ratio=0.0)
+    t = term.states.tensors
+    assert env.sim.terrain_levels.tolist() == [1, 1, 0]
+    root_env = robot.root_pos_w - env.env_origins
+    match = [(t["level"] == env.sim.terrain_levels[i]) & (t["terrain_type"] == env.sim.terrain_types[i])
+             & torch.isclose(t["root_pos_env_m"], root_env[i], atol=1e-5).all(dim=1) for i in range(3)]
+    assert all(m.any() for m in match), "each env holds a state of its own row, in that state's cell"
+    env.scene.reset_to_default(all_envs)
+    term(env, all_envs, standing_ratio=1.0)
+    assert torch.allclose(robot.root_pos_w[:, 2], robot.default_root_pose[:, 2] + env.env_origins[:, 2])
+    assert torch.allclose(robot.joint_pos, robot.default_joint_pos)
+    env.reset()
+
+
+def test_relative_joint_action_steps_from_the_current_position(stand_up_env):
+    env, _, _, _ = stand_up_env
+    term = env.action_manager.get_term("joint_pos")
+    robot = env.scene["robot"]
+    action = torch.full((env.num_envs, term.action_dim), 0.5)
+    action[:, 0] = 20.0  # a 2 rad step, clipped to 1 rad (the clip bounds action x scale, as Isaac Lab's)
+    term.process_actions(action)
+    term.apply_actions()
+    expected = robot.joint_pos[:, term.joint_ids] + 0.05
+    expected[:, 0] = robot.joint_pos[:, term.joint_ids[0]] + 1.0
+    assert torch.allclose(robot.joint_pos_target[:, term.joint_ids], expected, atol=1e-6)
+
+
+def _build(env_cfg) -> tuple[object, str]:
+    import contextlib
+    import io
+
+    from utils import cli
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        env = cli.make_env(TASK, env_cfg, "cpu")
+    return env, out.getvalue()
+
+
+def test_a_second_build_loads_the_cache_and_a_cut_cache_is_rebuilt(stand_up_env):
+    _, _, cache_dir, _ = stand_up_env
+    env, printed = _build(_small_env_cfg(cache_dir)[0])  # the same inputs: loaded, not collected
+    assert "loaded from the cache" in printed and "collected" not in printed
+    assert len(env.event_manager.get_term("reset_base").states) > 0
+    [cache_file] = cache_dir.iterdir()
+    cache_file.write_bytes(cache_file.read_bytes()[:100])  # a write cut short
+    _, printed = _build(_small_env_cfg(cache_dir)[0])
+    assert "is unreadable" in printed and "collected in" in printed
+    assert cache.load_states(cache_file, cache_file.stem.rsplit("_", 1)[1], STATE_FIELDS)[1] == ""  # rebuilt
+    _, printed = _build(_small_env_cfg(cache_dir, num_rows=3)[0])  # another terrain: another file
+    assert "collected in" in printed and len(list(cache_dir.iterdir())) == 2
+
+
+def test_pre_learn_then_one_ppo_iteration(stand_up_env, tmp_path):
+    from rsl_rl.runners import OnPolicyRunner
+
+    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+
+    env, agent_cfg, _, _ = stand_up_env
+    agent_cfg.num_steps_per_env = 4
+    agent_cfg.algorithm.num_mini_batches = 2
+    runner = OnPolicyRunner(RslRlVecEnvWrapper(env), to_rsl_rl_dict(agent_cfg), log_dir=str(tmp_path), device="cpu")
+    runner.learn(num_learning_iterations=1)
+    assert (tmp_path / "model_0.pt").is_file()
+    assert not {name: int(n) for name, n in env.reward_manager.nonfinite_count.items() if int(n)}
+    assert runner.alg.symmetry is not None  # the mirror covers every term, the contact forces too
+
+
+def test_play_validate_fallen_states(tmp_path):
+    result = subprocess.run(
+        [sys.executable, "scripts/play.py", "--task", TASK, "--device", "cpu", "--num_envs", "2", "--num_steps", "110",
+         "--validate_fallen_states", "env.scene.terrain.num_rows=2",
+         f"env.events.reset_base.params.dataset.cache_dir={tmp_path}"],
+        cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    assert "zero actions" in result.stdout and "fallen states:" in result.stdout
+    assert "episodes ended 4, by failure 0" in result.stdout  # 2 envs reset every second for 2.2 s
