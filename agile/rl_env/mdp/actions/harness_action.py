@@ -8,6 +8,7 @@ import torch
 import warp as wp
 
 from agile.rl_env.managers import ActionTerm
+from agile.rl_env.mdp.actions.body_wrench import BodyWrenchSlot, TerrainHeightUnder, write_body_wrench
 from agile.utils.config import configclass
 
 
@@ -19,9 +20,9 @@ def _clamp_vec(v: wp.vec3, limit: float) -> wp.vec3:
 @wp.kernel
 def _harness_wrench(body_q: wp.array(dtype=wp.transform), body_qd: wp.array(dtype=wp.spatial_vector),
                     body_ids: wp.array(dtype=wp.int32), target_height_m: wp.array(dtype=float),
-                    ground_z_m: wp.array(dtype=float), disturbance_w: wp.array(dtype=wp.spatial_vector),
-                    scale: wp.array(dtype=float), stiffness_force: float, damping_force: float, force_limit_n: float,
-                    stiffness_torque: float, damping_torque: float, torque_limit_nm: float,
+                    ground_z_m: wp.array(dtype=float), scale: wp.array(dtype=float), stiffness_force: float,
+                    damping_force: float, force_limit_n: float, stiffness_torque: float, damping_torque: float,
+                    torque_limit_nm: float, disturbance_w: wp.array(dtype=wp.spatial_vector),
                     body_f: wp.array(dtype=wp.spatial_vector), last_total_w: wp.array(dtype=wp.spatial_vector)):
     i = wp.tid()
     b = body_ids[i]
@@ -46,9 +47,7 @@ def _harness_wrench(body_q: wp.array(dtype=wp.transform), body_qd: wp.array(dtyp
                           torque_limit_nm)
     s = scale[0]
     harness = wp.spatial_vector(wp.vec3(0.0, 0.0, s * force_z), s * wp.quat_rotate(quat, torque_b))
-    total = disturbance_w[i] + harness
-    body_f[b] = total
-    last_total_w[i] = total
+    write_body_wrench(i, b, harness, disturbance_w, body_f, last_total_w)
 
 
 class HarnessAction(ActionTerm):
@@ -74,29 +73,22 @@ class HarnessAction(ActionTerm):
         if len(ids) != 1:
             raise ValueError(f"harness body_name '{cfg.body_name}' must match one body, matched {names}")
         self.body_id = ids[0]
-        self.height_scanner = env.scene[cfg.height_sensor] if cfg.height_sensor is not None else None
+        self.terrain = TerrainHeightUnder(env, cfg.height_sensor)
         self.command_name = cfg.command_name
         if cfg.command_name is not None:
             env.command_manager.get_term(cfg.command_name)  # a missing command is a build error
         n, device = env.num_envs, env.device
-        model = env.sim.model
-        bodies_per_world = model.body_count // model.world_count
-        global_ids = (torch.arange(n, device=device) * bodies_per_world + self.robot.layout.bodies.start
-                      + self.body_id).to(torch.int32)
+        self.wrench_slot = BodyWrenchSlot(env, self.robot, self.body_id)
         self.scale = torch.ones(1, device=device)
         """Harness strength in [0, 1], set by the curriculum in place."""
         self.target_height_m = torch.full((n,), cfg.target_height_m, device=device)
-        self.ground_z_m = torch.zeros(n, device=device)
-        self.disturbance_w = torch.zeros(n, 6, device=device)
-        self.last_total_w = torch.zeros(n, 6, device=device)
-        self._body_wrench_w = self.robot.body_wrench_w[:, self.body_id]
         state = env.sim.state
-        self._inputs = [state.body_q, state.body_qd, wp.from_torch(global_ids, dtype=wp.int32),
-                        wp.from_torch(self.target_height_m), wp.from_torch(self.ground_z_m),
-                        wp.from_torch(self.disturbance_w, dtype=wp.spatial_vector), wp.from_torch(self.scale),
+        slot = self.wrench_slot
+        self._inputs = [state.body_q, state.body_qd, slot.global_body_ids_wp, wp.from_torch(self.target_height_m),
+                        self.terrain.ground_z_m_wp, wp.from_torch(self.scale),
                         cfg.stiffness_force_n_per_m, cfg.damping_force_n_s_per_m, cfg.force_limit_n,
                         cfg.stiffness_torque_nm_per_rad, cfg.damping_torque_nm_s_per_rad, cfg.torque_limit_nm,
-                        state.body_f, wp.from_torch(self.last_total_w, dtype=wp.spatial_vector)]
+                        slot.disturbance_w_wp, state.body_f, slot.last_total_w_wp]
         self._num_envs = n
         env.sim.add_physics_step_hook(self.apply_wrench)
 
@@ -115,11 +107,8 @@ class HarnessAction(ActionTerm):
         """Once per env step, before the physics: the targets, the terrain height, and the current push."""
         if self.command_name is not None:
             self.target_height_m.copy_(self.env.command_manager.get_command(self.command_name)[:, 3])
-        if self.height_scanner is not None:
-            self.ground_z_m.copy_(self.height_scanner.hit_z_m.mean(dim=1))
-        current = self._body_wrench_w
-        unchanged = (current == self.last_total_w).all(dim=-1, keepdim=True)
-        self.disturbance_w.copy_(torch.where(unchanged, self.disturbance_w, current))
+        self.terrain.update()
+        self.wrench_slot.update_disturbance()
 
     def apply_wrench(self) -> None:
         """Before every physics step (a Simulation hook)."""

@@ -1,0 +1,146 @@
+"""Lift (AGILE `LiftAction`, stand-up): a force that pulls a fallen robot up by one link (T1: the head, "H2")
+towards a target height that rises over the episode, with yaw damping; a curriculum (`adaptive_lift_curriculum`)
+weakens it as the policy learns to stand up by itself. Training only: students and exported policies run without
+it (`LiftActionCfg.training_only`)."""
+
+from __future__ import annotations
+
+import torch
+import warp as wp
+
+from agile.rl_env.managers import ActionTerm
+from agile.rl_env.mdp.actions.body_wrench import BodyWrenchSlot, TerrainHeightUnder, write_body_wrench
+from agile.utils.config import configclass
+
+__all__ = ["LiftAction", "LiftActionCfg"]
+
+
+@wp.kernel
+def _lift_wrench(root_z_w_m: wp.array(dtype=float), root_ang_vel_z_w: wp.array(dtype=float),
+                 ground_z_m: wp.array(dtype=float), target_height_m: wp.array(dtype=float),
+                 scale: wp.array(dtype=float), stiffness_force: float, force_limit_n: float, damping_torque: float,
+                 torque_limit_nm: float, body_ids: wp.array(dtype=wp.int32),
+                 disturbance_w: wp.array(dtype=wp.spatial_vector), body_f: wp.array(dtype=wp.spatial_vector),
+                 last_total_w: wp.array(dtype=wp.spatial_vector), max_heights_m: wp.array(dtype=float)):
+    i = wp.tid()
+    height_m = root_z_w_m[i] - ground_z_m[i]
+    # tracked even while the lift is off: the curriculum judges standing by it
+    max_heights_m[i] = wp.max(max_heights_m[i], height_m)
+    # AGILE's scale_forces scales the gain and the limit alike
+    s = scale[0]
+    force_limit = s * force_limit_n
+    torque_limit = s * torque_limit_nm
+    # lift only: a robot above the target is not pulled down
+    force_z = wp.clamp(s * stiffness_force * (target_height_m[i] - height_m), 0.0, force_limit)
+    # yaw damping only: roll and pitch stay free for the robot to balance
+    torque_z = wp.clamp(-s * damping_torque * root_ang_vel_z_w[i], -torque_limit, torque_limit)
+    lift = wp.spatial_vector(wp.vec3(0.0, 0.0, force_z), wp.vec3(0.0, 0.0, torque_z))
+    write_body_wrench(i, body_ids[i], lift, disturbance_w, body_f, last_total_w)
+
+
+class LiftAction(ActionTerm):
+    """No policy output (action_dim 0). Before every physics step, a wrench in the world frame on one link
+    (`body_name`, T1's head "H2"), as AGILE's `LiftAction.apply_actions` (which Isaac Lab calls every physics step):
+    - h: the root height above the terrain, root z (at this physics step) minus the mean terrain height under the
+      height scanner `height_sensor` (AGILE re-casts its rays every physics step; here the scan of the last env
+      step, under a root that moves little within one); `max_heights_m` keeps its maximum over the episode;
+    - target: clamp((t - start_lifting_time_s) / lifting_duration_s, 0, 1) · target_height_m, t the episode time
+      (episode_length_buf · step_dt, as AGILE: fixed within an env step); 0 until start_lifting_time_s;
+    - force along world z: clamp(k_force·(target - h), 0, force_limit_n): it lifts, never pushes down;
+    - torque about world z: clamp(-d_torque·ω_z, ±torque_limit_nm), ω_z the root's yaw rate: no roll or pitch;
+    k_force, d_torque and both limits times `scale` (1 at first; the curriculum lowers it through `scale_forces`;
+    a (1,) device tensor, so that a captured step sees its changes). AGILE's `damping_forces` (d_force) is
+    configured but not used by its lift: no vertical damping.
+
+    Random pushes on the same link add to the lift (`BodyWrenchSlot`, as the harness).
+
+    The yaw damping is explicit (from the yaw rate before the physics step), so it is stable only while
+    d_torque·physics_dt < 2·I_yaw: lying down T1 is far inside that, but upright (I_yaw about 0.5 kg·m² rigid, less
+    with its joints compliant) AGILE's 100 N·m·s/rad at 5 ms overshoots and flips the spin each physics step
+    (measured on CPU: 1 → -2.0 → 4.1 rad/s), bounded by the torque limit, until the curriculum lowers the scale.
+    """
+
+    def __init__(self, cfg: LiftActionCfg, env):
+        super().__init__(cfg, env)
+        if not cfg.lifting_duration_s > 0.0:
+            raise ValueError(f"lift lifting_duration_s must be positive, got {cfg.lifting_duration_s}")
+        self.robot = env.scene[cfg.asset_name]
+        ids, names = self.robot.find_bodies(cfg.body_name)
+        if len(ids) != 1:
+            raise ValueError(f"lift body_name '{cfg.body_name}' must match one body, matched {names}")
+        self.body_id = ids[0]
+        self.terrain = TerrainHeightUnder(env, cfg.height_sensor)
+        n, device = env.num_envs, env.device
+        self.wrench_slot = BodyWrenchSlot(env, self.robot, self.body_id)
+        self.scale = torch.ones(1, device=device)
+        """Lift strength in [0, 1], set by the curriculum in place."""
+        self.target_height_m = torch.zeros(n, device=device)
+        """(N,) the lift's target root height above the terrain for the current env step [m]."""
+        self.max_heights_m = torch.zeros(n, device=device)
+        """(N,) highest root height above the terrain in the current episode [m] (AGILE `max_heights`), over
+        every physics step; 0 at the episode's start. The curriculum counts an episode as standing by it."""
+        slot = self.wrench_slot
+        # the root's height and yaw rate, read in place from the simulation state at every physics step
+        self._inputs = [wp.from_torch(self.robot.root_pos_w[:, 2]), wp.from_torch(self.robot.root_ang_vel_w[:, 2]),
+                        self.terrain.ground_z_m_wp, wp.from_torch(self.target_height_m), wp.from_torch(self.scale),
+                        cfg.stiffness_force_n_per_m, cfg.force_limit_n, cfg.damping_torque_nm_s_per_rad,
+                        cfg.torque_limit_nm, slot.global_body_ids_wp, slot.disturbance_w_wp, env.sim.state.body_f,
+                        slot.last_total_w_wp, wp.from_torch(self.max_heights_m)]
+        self._num_envs = n
+        env.sim.add_physics_step_hook(self.apply_wrench)
+
+    @property
+    def action_dim(self) -> int:
+        return 0
+
+    def scale_forces(self, scale: torch.Tensor | float) -> None:
+        """Set the lift strength (1: as configured, 0: off); a 0-dim tensor is copied on its device (no host sync)."""
+        self.scale.copy_(torch.as_tensor(scale, dtype=torch.float32, device=self.scale.device).reshape(1))
+
+    def process_actions(self, actions: torch.Tensor) -> None:
+        pass  # no policy output
+
+    def apply_actions(self) -> None:
+        """Once per env step, before the physics: the target height, the terrain height, and the current push."""
+        cfg = self.cfg
+        elapsed_s = self.env.episode_length_buf * self.env.step_dt
+        progress = ((elapsed_s - cfg.start_lifting_time_s) / cfg.lifting_duration_s).clamp(0.0, 1.0)
+        self.target_height_m.copy_(progress * cfg.target_height_m)
+        self.terrain.update()
+        self.wrench_slot.update_disturbance()
+
+    def apply_wrench(self) -> None:
+        """Before every physics step (a Simulation hook)."""
+        wp.launch(_lift_wrench, dim=self._num_envs, inputs=self._inputs)
+
+    def reset(self, env_mask: torch.Tensor) -> None:
+        """A new episode: its highest height starts again from 0 (AGILE)."""
+        self.max_heights_m.masked_fill_(env_mask, 0.0)
+
+
+@configclass
+class LiftActionCfg:
+    """AGILE T1 stand-up: on the head ("H2"), k_force 5000, d_force 500 (unused), 300 N, d_torque 100, 250 N·m,
+    to 0.65 m (T1's standing trunk height) from 3 s over 10 s."""
+
+    class_type: type = LiftAction
+    asset_name: str = "robot"
+    body_name: str = "H2"
+    """The link pulled up (AGILE `link_to_lift`)."""
+    stiffness_force_n_per_m: float = 5000.0
+    damping_force_n_s_per_m: float = 500.0
+    """AGILE's `damping_forces`: configured and scaled there, but its lift applies no vertical damping; unused
+    here too, kept so that a config carries AGILE's values."""
+    force_limit_n: float = 300.0
+    damping_torque_nm_s_per_rad: float = 100.0
+    torque_limit_nm: float = 250.0
+    target_height_m: float = 0.65
+    """Root height above the terrain the target rises to."""
+    start_lifting_time_s: float = 3.0
+    """Episode time at which the target starts rising from 0."""
+    lifting_duration_s: float = 10.0
+    """Time the target takes to rise from 0 to `target_height_m`."""
+    height_sensor: str | None = "height_measurement_sensor"
+    """Height scanner under the root: the height is measured above the terrain it sees (None: above z=0)."""
+    training_only: bool = True
+    """An aid to learning, absent on the robot: students and exported policies drop every action term so marked."""
