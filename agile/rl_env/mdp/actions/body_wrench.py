@@ -7,6 +7,8 @@ from __future__ import annotations
 import torch
 import warp as wp
 
+from agile.rl_env.managers import ActionTerm
+
 
 @wp.func
 def write_body_wrench(i: int, body: int, aid_w: wp.spatial_vector, disturbance_w: wp.array(dtype=wp.spatial_vector),
@@ -65,3 +67,44 @@ class TerrainHeightUnder:
     def update(self) -> None:
         if self.scanner is not None:
             self.ground_z_m.copy_(self.scanner.hit_z_m.mean(dim=1))
+
+
+class BodyAidAction(ActionTerm):
+    """A training aid that pushes one body before every physics step (a Simulation hook launching `kernel` over the
+    envs with `kernel_inputs`): no action dimensions, a strength `scale` in [0, 1] that a curriculum sets in place,
+    the body's wrench slot (pushes add to the aid) and the terrain height under `height_sensor`. Subclasses set
+    `kernel` and `kernel_inputs` in their constructor, then call `start_hook()`; `apply_actions` refreshes what
+    the kernel reads once per env step."""
+
+    kernel = None
+    kernel_inputs: list
+
+    def __init__(self, cfg, env, what: str):
+        super().__init__(cfg, env)
+        self.robot = env.scene[cfg.asset_name]
+        ids, names = self.robot.find_bodies(cfg.body_name)
+        if len(ids) != 1:
+            raise ValueError(f"{what} body_name '{cfg.body_name}' must match one body, matched {names}")
+        self.body_id = ids[0]
+        self.terrain = TerrainHeightUnder(env, cfg.height_sensor)
+        self.wrench_slot = BodyWrenchSlot(env, self.robot, self.body_id)
+        self.scale = torch.ones(1, device=env.device)
+        """Strength in [0, 1], set by a curriculum in place."""
+
+    def start_hook(self) -> None:
+        self.env.sim.add_physics_step_hook(self.apply_wrench)
+
+    @property
+    def action_dim(self) -> int:
+        return 0
+
+    def scale_forces(self, scale: torch.Tensor | float) -> None:
+        """Set the strength (1: as configured, 0: off); a 0-dim tensor is copied on its device (no host sync)."""
+        self.scale.copy_(torch.as_tensor(scale, dtype=torch.float32, device=self.scale.device).reshape(1))
+
+    def process_actions(self, actions: torch.Tensor) -> None:
+        pass  # no policy output
+
+    def apply_wrench(self) -> None:
+        """Before every physics step (a Simulation hook)."""
+        wp.launch(self.kernel, dim=self.env.num_envs, inputs=self.kernel_inputs)

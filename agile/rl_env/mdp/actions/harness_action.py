@@ -7,8 +7,7 @@ from __future__ import annotations
 import torch
 import warp as wp
 
-from agile.rl_env.managers import ActionTerm
-from agile.rl_env.mdp.actions.body_wrench import BodyWrenchSlot, TerrainHeightUnder, write_body_wrench
+from agile.rl_env.mdp.actions.body_wrench import BodyAidAction, write_body_wrench
 from agile.utils.config import configclass
 
 
@@ -50,7 +49,7 @@ def _harness_wrench(body_q: wp.array(dtype=wp.transform), body_qd: wp.array(dtyp
     write_body_wrench(i, b, harness, disturbance_w, body_f, last_total_w)
 
 
-class HarnessAction(ActionTerm):
+class HarnessAction(BodyAidAction):
     """No policy output (action_dim 0). Before every physics step, a wrench on one body (the pelvis):
     - force along world z: clip(k_force·(h_target - h) - d_force·v_z, ±force_limit), h the body's height above
       the terrain under the height scanner `height_sensor` (the terrain height is the scan of the last env
@@ -67,41 +66,21 @@ class HarnessAction(ActionTerm):
     """
 
     def __init__(self, cfg: HarnessActionCfg, env):
-        super().__init__(cfg, env)
-        self.robot = env.scene[cfg.asset_name]
-        ids, names = self.robot.find_bodies(cfg.body_name)
-        if len(ids) != 1:
-            raise ValueError(f"harness body_name '{cfg.body_name}' must match one body, matched {names}")
-        self.body_id = ids[0]
-        self.terrain = TerrainHeightUnder(env, cfg.height_sensor)
+        super().__init__(cfg, env, "harness")
         self.command_name = cfg.command_name
         if cfg.command_name is not None:
             env.command_manager.get_term(cfg.command_name)  # a missing command is a build error
         n, device = env.num_envs, env.device
-        self.wrench_slot = BodyWrenchSlot(env, self.robot, self.body_id)
-        self.scale = torch.ones(1, device=device)
-        """Harness strength in [0, 1], set by the curriculum in place."""
         self.target_height_m = torch.full((n,), cfg.target_height_m, device=device)
         state = env.sim.state
         slot = self.wrench_slot
-        self._inputs = [state.body_q, state.body_qd, slot.global_body_ids_wp, wp.from_torch(self.target_height_m),
-                        self.terrain.ground_z_m_wp, wp.from_torch(self.scale),
-                        cfg.stiffness_force_n_per_m, cfg.damping_force_n_s_per_m, cfg.force_limit_n,
-                        cfg.stiffness_torque_nm_per_rad, cfg.damping_torque_nm_s_per_rad, cfg.torque_limit_nm,
-                        slot.disturbance_w_wp, state.body_f, slot.last_total_w_wp]
-        self._num_envs = n
-        env.sim.add_physics_step_hook(self.apply_wrench)
-
-    @property
-    def action_dim(self) -> int:
-        return 0
-
-    def scale_forces(self, scale: torch.Tensor | float) -> None:
-        """Set the harness strength (1: as configured, 0: off)."""
-        self.scale.copy_(torch.as_tensor(scale, dtype=torch.float32, device=self.scale.device).reshape(1))
-
-    def process_actions(self, actions: torch.Tensor) -> None:
-        pass  # no policy output
+        self.kernel = _harness_wrench
+        self.kernel_inputs = [state.body_q, state.body_qd, slot.global_body_ids_wp, wp.from_torch(self.target_height_m),
+                              self.terrain.ground_z_m_wp, wp.from_torch(self.scale),
+                              cfg.stiffness_force_n_per_m, cfg.damping_force_n_s_per_m, cfg.force_limit_n,
+                              cfg.stiffness_torque_nm_per_rad, cfg.damping_torque_nm_s_per_rad, cfg.torque_limit_nm,
+                              slot.disturbance_w_wp, state.body_f, slot.last_total_w_wp]
+        self.start_hook()
 
     def apply_actions(self) -> None:
         """Once per env step, before the physics: the targets, the terrain height, and the current push."""
@@ -109,10 +88,6 @@ class HarnessAction(ActionTerm):
             self.target_height_m.copy_(self.env.command_manager.get_command(self.command_name)[:, 3])
         self.terrain.update()
         self.wrench_slot.update_disturbance()
-
-    def apply_wrench(self) -> None:
-        """Before every physics step (a Simulation hook)."""
-        wp.launch(_harness_wrench, dim=self._num_envs, inputs=self._inputs)
 
 
 @configclass

@@ -72,7 +72,8 @@ class RelativeJointPositionAction(JointPositionAction):
     are. The target is set once per env step from the position then (Isaac Lab re-reads it every physics step)."""
 
     def apply_actions(self) -> None:
-        self.robot.joint_pos_target[:, self.joint_ids] = self.processed_actions + self.robot.joint_pos[:, self.joint_ids]
+        current = self.robot.joint_pos[:, self.joint_ids]
+        self.robot.joint_pos_target[:, self.joint_ids] = self.processed_actions + current
 
 
 @configclass

@@ -8,8 +8,7 @@ from __future__ import annotations
 import torch
 import warp as wp
 
-from agile.rl_env.managers import ActionTerm
-from agile.rl_env.mdp.actions.body_wrench import BodyWrenchSlot, TerrainHeightUnder, write_body_wrench
+from agile.rl_env.mdp.actions.body_wrench import BodyAidAction, write_body_wrench
 from agile.utils.config import configclass
 
 __all__ = ["LiftAction", "LiftActionCfg"]
@@ -38,7 +37,7 @@ def _lift_wrench(root_z_w_m: wp.array(dtype=float), root_ang_vel_z_w: wp.array(d
     write_body_wrench(i, body_ids[i], lift, disturbance_w, body_f, last_total_w)
 
 
-class LiftAction(ActionTerm):
+class LiftAction(BodyAidAction):
     """No policy output (action_dim 0). Before every physics step, a wrench in the world frame on one link
     (`body_name`, T1's head "H2"), as AGILE's `LiftAction.apply_actions` (which Isaac Lab calls every physics step):
     - h: the root height above the terrain, root z (at this physics step) minus the mean terrain height under the
@@ -61,19 +60,10 @@ class LiftAction(ActionTerm):
     """
 
     def __init__(self, cfg: LiftActionCfg, env):
-        super().__init__(cfg, env)
         if not cfg.lifting_duration_s > 0.0:
             raise ValueError(f"lift lifting_duration_s must be positive, got {cfg.lifting_duration_s}")
-        self.robot = env.scene[cfg.asset_name]
-        ids, names = self.robot.find_bodies(cfg.body_name)
-        if len(ids) != 1:
-            raise ValueError(f"lift body_name '{cfg.body_name}' must match one body, matched {names}")
-        self.body_id = ids[0]
-        self.terrain = TerrainHeightUnder(env, cfg.height_sensor)
+        super().__init__(cfg, env, "lift")
         n, device = env.num_envs, env.device
-        self.wrench_slot = BodyWrenchSlot(env, self.robot, self.body_id)
-        self.scale = torch.ones(1, device=device)
-        """Lift strength in [0, 1], set by the curriculum in place."""
         self.target_height_m = torch.zeros(n, device=device)
         """(N,) the lift's target root height above the terrain for the current env step [m]."""
         self.max_heights_m = torch.zeros(n, device=device)
@@ -81,24 +71,14 @@ class LiftAction(ActionTerm):
         every physics step; 0 at the episode's start. The curriculum counts an episode as standing by it."""
         slot = self.wrench_slot
         # the root's height and yaw rate, read in place from the simulation state at every physics step
-        self._inputs = [wp.from_torch(self.robot.root_pos_w[:, 2]), wp.from_torch(self.robot.root_ang_vel_w[:, 2]),
-                        self.terrain.ground_z_m_wp, wp.from_torch(self.target_height_m), wp.from_torch(self.scale),
-                        cfg.stiffness_force_n_per_m, cfg.force_limit_n, cfg.damping_torque_nm_s_per_rad,
-                        cfg.torque_limit_nm, slot.global_body_ids_wp, slot.disturbance_w_wp, env.sim.state.body_f,
-                        slot.last_total_w_wp, wp.from_torch(self.max_heights_m)]
-        self._num_envs = n
-        env.sim.add_physics_step_hook(self.apply_wrench)
-
-    @property
-    def action_dim(self) -> int:
-        return 0
-
-    def scale_forces(self, scale: torch.Tensor | float) -> None:
-        """Set the lift strength (1: as configured, 0: off); a 0-dim tensor is copied on its device (no host sync)."""
-        self.scale.copy_(torch.as_tensor(scale, dtype=torch.float32, device=self.scale.device).reshape(1))
-
-    def process_actions(self, actions: torch.Tensor) -> None:
-        pass  # no policy output
+        self.kernel = _lift_wrench
+        self.kernel_inputs = [wp.from_torch(self.robot.root_pos_w[:, 2]),
+                              wp.from_torch(self.robot.root_ang_vel_w[:, 2]), self.terrain.ground_z_m_wp,
+                              wp.from_torch(self.target_height_m), wp.from_torch(self.scale),
+                              cfg.stiffness_force_n_per_m, cfg.force_limit_n, cfg.damping_torque_nm_s_per_rad,
+                              cfg.torque_limit_nm, slot.global_body_ids_wp, slot.disturbance_w_wp, env.sim.state.body_f,
+                              slot.last_total_w_wp, wp.from_torch(self.max_heights_m)]
+        self.start_hook()
 
     def apply_actions(self) -> None:
         """Once per env step, before the physics: the target height, the terrain height, and the current push."""
@@ -108,10 +88,6 @@ class LiftAction(ActionTerm):
         self.target_height_m.copy_(progress * cfg.target_height_m)
         self.terrain.update()
         self.wrench_slot.update_disturbance()
-
-    def apply_wrench(self) -> None:
-        """Before every physics step (a Simulation hook)."""
-        wp.launch(_lift_wrench, dim=self._num_envs, inputs=self._inputs)
 
     def reset(self, env_mask: torch.Tensor) -> None:
         """A new episode: its highest height starts again from 0 (AGILE)."""
