@@ -56,7 +56,8 @@ def curves_of(label: str | None, paths: list[str]) -> list[tuple[str, list[str]]
     files = [f for path in paths for f in event_files(path)]
     if files:
         return [(label or Path(paths[0]).name, files)]
-    groups = sorted({p.parent.name for path in paths if os.path.isdir(path) for p in Path(path).glob(f"*/{EVENTS_GLOB}")})
+    groups = sorted({p.parent.name for path in paths if os.path.isdir(path)
+                     for p in Path(path).glob(f"*/{EVENTS_GLOB}")})
     if not groups:
         cli.fail(f"no tensorboard event files in {', '.join(paths)} (nor in its agent-group subfolders)")
     label = label or Path(paths[0]).name
