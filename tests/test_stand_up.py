@@ -190,7 +190,7 @@ def test_pre_learn_then_one_ppo_iteration(stand_up_env, tmp_path):
     assert runner.alg.symmetry is not None  # the mirror covers every term, the contact forces too
 
 
-def test_play_validate_fallen_states(tmp_path):
+def test_play_validate_fallen_states(tmp_path):  # also: the collection's progress bar, with its ETA
     result = subprocess.run(
         [sys.executable, "scripts/play.py", "--task", TASK, "--device", "cpu", "--num_envs", "2", "--num_steps", "110",
          "--validate_fallen_states", "env.scene.terrain.num_rows=2",
@@ -198,4 +198,5 @@ def test_play_validate_fallen_states(tmp_path):
         cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
     assert "zero actions" in result.stdout and "fallen states:" in result.stdout
+    assert "fallen states: 100%" in result.stderr and "2/2" in result.stderr  # a drop per row, then done
     assert "episodes ended 4, by failure 0" in result.stdout  # 2 envs reset every second for 2.2 s

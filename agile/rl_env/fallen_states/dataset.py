@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 import torch
+from tqdm import tqdm
 
 from agile.rl_env.fallen_states import cache
 from agile.utils.config import configclass, to_dict
@@ -135,19 +136,21 @@ def collect_fallen_states(env, cfg: FallenStateDatasetCfg, robot_name: str = "ro
     zero_action = torch.zeros(env.num_envs, env.action_manager.total_action_dim, device=env.device)
     settle_steps = max(1, round(cfg.settle_time_s / env.step_dt))
     pieces: dict[str, list[torch.Tensor]] = {name: [] for name in STATE_FIELDS}
-    for level in range(env.sim.max_terrain_level):
-        for _ in range(cfg.num_spawns_per_level):
-            _drop(env, robot, cfg, level)
-            env.simulate(zero_action, settle_steps)
-            root_pos_env = robot.root_pos_w - env.env_origins
-            root_pos_env[:, :2] = root_pos_env[:, :2].clamp(-half_cell_m, half_cell_m)
-            pieces["root_pos_env_m"].append(root_pos_env)
-            pieces["root_quat_xyzw"].append(robot.root_pose_w[:, 3:7].clone())
-            pieces["root_vel_w"].append(robot.root_com_vel_w.clone())
-            pieces["joint_pos_rad"].append(robot.joint_pos.clone())
-            pieces["joint_vel_radps"].append(robot.joint_vel.clone())
-            pieces["level"].append(env.sim.terrain_levels.clone())
-            pieces["terrain_type"].append(env.sim.terrain_types.clone())
+    drops = [level for level in range(env.sim.max_terrain_level) for _ in range(cfg.num_spawns_per_level)]
+    for level in tqdm(drops, desc="fallen states", unit="drop", dynamic_ncols=True):  # the ETA
+        _drop(env, robot, cfg, level)
+        env.simulate(zero_action, settle_steps)
+        if torch.device(env.device).type == "cuda":  # the bar times finished drops, not launched ones
+            torch.cuda.synchronize(env.device)
+        root_pos_env = robot.root_pos_w - env.env_origins
+        root_pos_env[:, :2] = root_pos_env[:, :2].clamp(-half_cell_m, half_cell_m)
+        pieces["root_pos_env_m"].append(root_pos_env)
+        pieces["root_quat_xyzw"].append(robot.root_pose_w[:, 3:7].clone())
+        pieces["root_vel_w"].append(robot.root_com_vel_w.clone())
+        pieces["joint_pos_rad"].append(robot.joint_pos.clone())
+        pieces["joint_vel_radps"].append(robot.joint_vel.clone())
+        pieces["level"].append(env.sim.terrain_levels.clone())
+        pieces["terrain_type"].append(env.sim.terrain_types.clone())
     env.sim.set_terrain_levels(torch.zeros(env.num_envs, dtype=torch.long, device=env.device))
     states = {name: torch.cat(values) for name, values in pieces.items()}
     keep = torch.ones(states["level"].shape, dtype=torch.bool, device=env.device)
