@@ -200,3 +200,17 @@ def test_play_validate_fallen_states(tmp_path):  # also: the collection's progre
     assert "zero actions" in result.stdout and "fallen states:" in result.stdout
     assert "fallen states: 100%" in result.stderr and "2/2" in result.stderr  # a drop per row, then done
     assert "episodes ended 4, by failure 0" in result.stdout  # 2 envs reset every second for 2.2 s
+
+
+def test_a_row_without_states_draws_from_the_nearest_row_with_some():
+    from agile.rl_env.fallen_states import FallenStates
+
+    levels = torch.tensor([1, 1, 3])  # rows 0 and 2 lost every state (not at rest)
+    tensors = {name: torch.zeros(3, 1) for name in STATE_FIELDS}
+    tensors["level"] = levels
+    tensors["root_pos_env_m"] = torch.tensor([[10.0], [11.0], [30.0]])
+    states = FallenStates(tensors, num_levels=4)
+    assert states.source_level.tolist() == [1, 1, 1, 3]
+    for _ in range(20):
+        drawn = states.tensors["level"][states.sample(torch.tensor([0, 1, 2, 3, 7]))]
+        assert drawn.tolist() == [1, 1, 1, 3, 3]

@@ -72,14 +72,22 @@ class FallenStates:
         """(num_levels,) states per terrain row."""
         self.level_start = torch.cumsum(counts, 0) - counts
         """(num_levels,) index of each row's first state."""
+        # a row whose states were all dropped (not at rest) draws from the nearest lower row with states, else the
+        # nearest higher one; decided once here (host side, at build time), applied on the device in `sample`
+        filled = [level for level, n in enumerate(counts.tolist()) if n > 0]
+        source = [max((f for f in filled if f <= level), default=min(filled, default=0)) for level in
+                  range(self.num_levels)]
+        self.source_level = torch.tensor(source, dtype=torch.long, device=counts.device)
+        """(num_levels,) the row each terrain row draws its states from."""
 
     def __len__(self) -> int:
         return int(self.tensors["level"].shape[0])
 
     def sample(self, levels: torch.Tensor) -> torch.Tensor:
         """(N,) indices of states drawn uniformly from each env's terrain row (clamped to the rows collected; a
-        row without states falls back to the nearest lower one that has some). No host sync."""
-        levels = levels.clamp(0, self.num_levels - 1)
+        row without states draws from the nearest lower one that has some, else the nearest higher). No host
+        sync."""
+        levels = self.source_level[levels.clamp(0, self.num_levels - 1)]
         count = self.level_count[levels]
         uniform = torch.rand(levels.shape, device=levels.device)
         return self.level_start[levels] + (uniform * count).long().clamp(max=(count - 1).clamp(min=0))
