@@ -176,10 +176,15 @@ class SceneCfg:
     ground_friction: float = 1.0
     """Friction of the ground plane, or of the terrain."""
     terrain_contact_gap_m: float = 0.02
-    """Speculative contact distance of every shape on a terrain (Newton `shape_gap`; its default is 0.1 m).
-    Newton's pipeline collects contacts against every terrain triangle within this distance: 0.1 m cost
-    3-4x the contacts and 5-6x the collision time of 0.02 m (CPU, 64 worlds). 0.02 m is 4 physics steps of
-    a foot at 1 m/s, or one at 4 m/s."""
+    """Speculative contact distance of every shape on a terrain (Newton `shape_gap`; its default is 0.1 m): a pair
+    within the sum of its shapes' gaps makes a contact (which pushes only once it touches). Newton's pipeline
+    collects contacts against every terrain triangle within it: 0.1 m cost 3-4x the contacts and 5-6x the
+    collision time of 0.02 m (CPU, 64 worlds)."""
+    terrain_collision: str = "probes"
+    """How colliders meet a terrain. "probes" (`agile/sim/terrain_contacts.py`): a few points per sphere, capsule,
+    box or cylinder collider against the height samples under them, the contacts MuJoCo's plane collision would
+    give; "newton_pipeline": Newton's general collision pipeline, the height field as triangles (any collider
+    type; several times dearer). Pairs that do not involve the terrain always go through Newton's pipeline."""
     max_init_terrain_level: int | None = None
     """Envs start on a row drawn from [0, this]; None allows every row."""
     env_spacing_m: float = 2.5

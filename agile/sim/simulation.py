@@ -19,6 +19,7 @@ from agile.sim.scene import Scene, build_world_template, entity_of, filter_shape
 from agile.sim.scene_cfg import SceneCfg
 from agile.sim.sim_cfg import SimCfg
 from agile.sim.terrain import TerrainData, load_or_generate_terrain
+from agile.sim.terrain_contacts import TerrainContacts, split_terrain_pairs
 from agile.utils.config import ConfigError, domain_problems
 
 def env_origins_grid(num_envs: int, spacing_m: float, device) -> torch.Tensor:
@@ -39,6 +40,9 @@ def terrain_heightfield(terrain: TerrainData) -> newton.Heightfield:
     return newton.Heightfield(data=terrain.heights_m.T, nrow=ny, ncol=nx, hx=(nx - 1) * h / 2, hy=(ny - 1) * h / 2)
 
 
+TERRAIN_COLLISIONS = ("probes", "newton_pipeline")
+
+
 def check_physics_cfg(cfg: SimCfg, scene_cfg: SceneCfg) -> None:
     """Solver budgets and iterations of 0 run a world without contacts or constraint solving (MuJoCo prints an
     overflow every step instead of failing); MuJoCo warns that a friction of 0 may give NaN."""
@@ -46,6 +50,9 @@ def check_physics_cfg(cfg: SimCfg, scene_cfg: SceneCfg) -> None:
         cfg.solver, positive=("iterations", "ls_iterations", "njmax", "nconmax", "impratio"))]
     problems += [f"scene.{p}" for p in domain_problems(scene_cfg, positive=("ground_friction",),
                                                        non_negative=("terrain_contact_gap_m",))]
+    if scene_cfg.terrain_collision not in TERRAIN_COLLISIONS:
+        problems.append(f"scene.terrain_collision must be one of {list(TERRAIN_COLLISIONS)}, "
+                        f"got {scene_cfg.terrain_collision!r}")
     if problems:
         raise ConfigError("; ".join(problems))
 
@@ -90,14 +97,13 @@ class Simulation:
             self.model, iterations=s.iterations, ls_iterations=s.ls_iterations, njmax=s.njmax, nconmax=s.nconmax,
             cone=s.cone, impratio=s.impratio, integrator=s.integrator, solver=s.solver,
             use_mujoco_contacts=self.terrain is None)
-        # on a terrain Newton detects the contacts: mujoco_warp's height-field collision throws boxes (feet)
-        # off the field (seen on CPU, mujoco_warp 3.17), Newton's pipeline rests them at the right height
+        # on a terrain we detect the contacts: mujoco_warp's height-field collision throws boxes (feet) off the
+        # field (seen on CPU, mujoco_warp 3.17)
         self.collision_pipeline: newton.CollisionPipeline | None = None
+        self.terrain_contacts: TerrainContacts | None = None
         self.contacts: newton.Contacts | None = None
         if self.terrain is not None:
-            self.collision_pipeline = newton.CollisionPipeline(
-                self.model, rigid_contact_max=self.solver.get_max_contact_count())
-            self.contacts = self.collision_pipeline.contacts()
+            self._make_terrain_collision(scene_cfg.terrain_collision, ground_shape)
         # a capped iteration count is a deliberate speed/accuracy trade-off in RL: do not print a warning
         # from every world at every step when it is reached (capacity overflows still print)
         quiet = mujoco_warp.OverflowType.ITERATIONS | mujoco_warp.OverflowType.LS_ITERATIONS
@@ -138,6 +144,25 @@ class Simulation:
         state (a harness); added with `add_physics_step_hook`. Warp launches only: the loop is graph-captured."""
         self._graphs: dict[int, object] = {}
 
+    def _make_terrain_collision(self, method: str, terrain_shape: int) -> None:
+        contact_max = self.solver.get_max_contact_count()
+        if method == "newton_pipeline":
+            self.collision_pipeline = newton.CollisionPipeline(self.model, rigid_contact_max=contact_max)
+            self.contacts = self.collision_pipeline.contacts()
+            return
+        shapes, other_pairs = split_terrain_pairs(self.model, terrain_shape)
+        if len(other_pairs):  # entity-entity pairs (two robots, a hand and an object) keep Newton's pipeline
+            self.collision_pipeline = newton.CollisionPipeline(
+                self.model, rigid_contact_max=contact_max, broad_phase="explicit",
+                shape_pairs_filtered=wp.array(other_pairs, dtype=wp.vec2i, device=self.wp_device))
+            self.contacts = self.collision_pipeline.contacts()
+        else:
+            self.contacts = newton.Contacts(contact_max, 0, device=self.wp_device)
+        try:
+            self.terrain_contacts = TerrainContacts(self.model, self.terrain, terrain_shape, shapes, self.contacts)
+        except ValueError as err:
+            raise ConfigError(str(err)) from None
+
     def _make_contact_sensors(self, scene_cfg: SceneCfg, entities: dict, ground_shape: int) -> dict:
         # the solver writes each step's contact forces against the contacts it steps with: the pipeline's on a
         # terrain, else a buffer that MuJoCo's own collision detection is exported into; all sensors share them
@@ -174,6 +199,10 @@ class Simulation:
                 hook()
             if self.collision_pipeline is not None:
                 self.collision_pipeline.collide(self.state, self.contacts)
+            elif self.terrain_contacts is not None:
+                self.contacts.clear()
+            if self.terrain_contacts is not None:
+                self.terrain_contacts.collide(self.state)
             if not sensors:
                 self.solver.step(self.state, self.state, self.control, self.contacts, self.physics_dt_s)
             else:
