@@ -202,21 +202,27 @@ def _box_sample_contacts(
     sample = wp.vec3(origin[0] + float(i) * spacing, origin[1] + float(j) * spacing, heights[i, j])
     local = wp.transform_point(wp.transform_inverse(pose), sample)
     gap = shape_gap[shape] + shape_gap[terrain_shape]
-    # depth of the sample behind each face: inside the box when every depth is positive, a speculative contact
-    # when it is outside by less than the gap; the face it is least deep behind takes the contact
+    # depth of the sample behind each face: inside the box when every depth is positive (the face it is least deep
+    # behind takes the contact); a speculative contact when it is outside one face only, by less than the gap (over
+    # an edge or a corner it is left to the corner probes)
     best_axis = int(-1)
     best_sign = float(0.0)
     best_depth = float(1.0e6)
+    outside = int(0)
     for axis in range(3):
         for side in range(2):
             sign = 1.0 - 2.0 * float(side)
             depth = half[axis] - sign * local[axis]
             if depth < -gap:
                 return
+            if depth < 0.0:
+                outside += 1
             if depth < best_depth:
                 best_depth = depth
                 best_axis = axis
                 best_sign = sign
+    if outside > 1:
+        return
     face_local = wp.vec3(local[0], local[1], local[2])
     face_local[best_axis] = best_sign * half[best_axis]
     face_normal = wp.vec3(0.0)
