@@ -249,7 +249,8 @@ class MultiAgentEnv(gym.Env):
             log = {"Episode/length_s": torch.where(env_mask, agent.episode_length_buf, 0).sum() / count * agent.step_dt,
                    "Episode/died": (agent.died & env_mask).sum() / count,
                    "Episode_Termination/sim_unstable": (self.sim_unstable & env_mask).sum() / count,
-                   "Episode_Termination/invalid_action": (agent.action_manager.invalid_action & env_mask).sum() / count}
+                   "Episode_Termination/invalid_action": (agent.action_manager.invalid_action & env_mask).sum() / count,
+                   **self.sim.capacity.log()}
             for manager in (agent.reward_manager, agent.termination_manager):
                 log.update(manager.reset(env_mask))
             agent.log.write(log, hold_unless=any_reset)

@@ -289,6 +289,7 @@ class ManagerBasedRLEnv(gym.Env):
         log["Episode_Termination/sim_unstable"] = (self.sim_unstable & env_mask).sum() / count
         log["Episode_Termination/invalid_action"] = (self.action_manager.invalid_action & env_mask).sum() / count
         log["Episode/length_s"] = torch.where(env_mask, self.episode_length_buf, 0).sum() / count * self.step_dt
+        log.update(self.sim.capacity.log())
         for manager in (self.reward_manager, self.termination_manager):
             log.update(manager.reset(env_mask))
         # logs describe finished episodes: keep the last values while no env finishes

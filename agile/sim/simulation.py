@@ -13,6 +13,7 @@ import torch
 import warp as wp
 
 from agile.actuators import DelayedTargetGroup, ExplicitActuatorGroup
+from agile.sim.capacity import PhysicsCapacity
 from agile.sim.contact_sensor import ContactSensor
 from agile.sim.height_scanner import HeightScanner, TerrainHeights
 from agile.sim.scene import Scene, build_world_template, entity_of, filter_shape_ids, make_entities
@@ -104,6 +105,11 @@ class Simulation:
         self.contacts: newton.Contacts | None = None
         if self.terrain is not None:
             self._make_terrain_collision(scene_cfg.terrain_collision, ground_shape)
+        mjw = self.solver.mjw_data
+        self.capacity = PhysicsCapacity(
+            mjw.nefc, s.njmax, mjw.nacon if self.contacts is None else self.contacts.rigid_contact_count,
+            mjw.naconmax if self.contacts is None else self.contacts.rigid_contact_max)
+        """Peak constraint rows and contacts, and `njmax` overflows, counted on the device every physics step."""
         # a capped iteration count is a deliberate speed/accuracy trade-off in RL: do not print a warning
         # from every world at every step when it is reached (capacity overflows still print)
         quiet = mujoco_warp.OverflowType.ITERATIONS | mujoco_warp.OverflowType.LS_ITERATIONS
@@ -210,6 +216,7 @@ class Simulation:
                                  observables=self.sensor_observables)
                 for sensor in sensors:
                     sensor.update(self.state)
+            self.capacity.update()
         for group in self.actuator_groups:
             group.after_physics()
 

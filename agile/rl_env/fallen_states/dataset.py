@@ -188,12 +188,17 @@ def load_or_collect(env, cfg: FallenStateDatasetCfg, task_name: str, robot_name:
         elif Path(path).exists():
             print(f"[agile] fallen states: the cache {path} is {why_not}: collecting again", flush=True)
     if states is None:
+        env.sim.capacity.clear()
         states = collect_fallen_states(env, cfg, robot_name)
         if torch.device(env.device).type == "cuda":  # the collection is asynchronous: time it whole
             torch.cuda.synchronize(env.device)
         print(f"[agile] fallen states: {len(states['level'])} collected in {time.perf_counter() - start:.1f} s "
               f"({env.num_envs} envs x {cfg.num_spawns_per_level} drops x {env.sim.max_terrain_level} rows)",
               flush=True)
+        capacity = env.sim.capacity  # falls ask for the most constraint rows: size sim.solver.njmax from this
+        print(f"[agile] fallen states: at most {int(capacity.peak_constraint_rows.item())} constraint rows in one "
+              f"world (sim.solver.njmax {capacity.njmax}; {int(capacity.constraint_row_overflows.item())} world-steps "
+              f"over it)", flush=True)
         if cfg.use_cache:
             cache.save_states(Path(path), key, states)
             print(f"[agile] fallen states: cached in {path}", flush=True)
