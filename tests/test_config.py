@@ -87,17 +87,18 @@ def test_shipped_policy_conditions_still_name_real_fields(task):
 def test_shipped_policy_conditions_follow_the_policy_file():
     import agile.tasks
 
-    assert "Velocity-G1-History-v0" in _tasks_with_conditions()
+    assert "Velocity-Height-G1-Teacher-v0" in _tasks_with_conditions()
     # Velocity-Height-G1-v0 runs the policy shipped as Velocity-Height-G1-Teacher-v0, so its conditions too
     assert (agile.tasks.pretrained_policy_conditions("Velocity-Height-G1-v0")
             == agile.tasks.pretrained_policy_conditions("Velocity-Height-G1-Teacher-v0") != ("", []))
 
 
-def test_a_policy_trained_on_the_registered_task_has_no_conditions():
+@pytest.mark.parametrize("task", ["Velocity-T1-v0", "Velocity-G1-History-v0"])
+def test_a_policy_trained_on_the_registered_task_has_no_conditions(task):
     import agile.tasks
 
-    assert agile.tasks.pretrained_policy("Velocity-T1-v0") is not None
-    assert agile.tasks.pretrained_policy_conditions("Velocity-T1-v0") == ("", [])
+    assert agile.tasks.pretrained_policy(task) is not None
+    assert agile.tasks.pretrained_policy_conditions(task) == ("", [])
 
 
 def test_rsl_rl_runner_options_reach_the_runner_cfg():

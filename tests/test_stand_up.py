@@ -107,7 +107,8 @@ def test_collected_states_lie_at_rest_inside_their_cells(stand_up_env):
     states = env.event_manager.get_term("reset_base").states
     t = states.tensors
     dropped = int(printed.split(" dropped")[0].rsplit(": ", 1)[1].split(" of ")[0]) if " dropped" in printed else 0
-    assert len(states) == 3 * 1 * 2 - dropped and dropped <= 1  # 3 envs x 1 drop x 2 rows, minus those not at rest
+    # 3 envs x 1 drop x 2 rows, minus those not at rest (about 4% of drops: 14 of 384 on CPU, 1456 of 32768 on an H200)
+    assert len(states) == 3 * 1 * 2 - dropped and dropped <= 2
     half_cell = env.sim.terrain_cell_size_m / 2 - FallenStateDatasetCfg().cell_margin_m
     assert (t["root_pos_env_m"][:, :2].abs() <= half_cell + 1e-6).all()
     assert (t["root_pos_env_m"][:, 2] < 0.4).all()  # lying: the trunk far below its standing 0.65 m

@@ -44,11 +44,12 @@ def velocity_scene_cfg(robot: ArticulationCfg, terrain: TerrainGeneratorCfg, bas
         height_scanners={BASE_HEIGHT_SENSOR: HeightScannerCfg(entity="robot", body_name=base_body)})
 
 
-def velocity_sim_cfg(max_contacts_per_world: int) -> SimCfg:
-    """200 Hz MuJoCo physics. Newton's height-field collision reports several contacts per foot collider and
-    terrain triangle (including near, not yet touching ones): size `max_contacts_per_world` from a measurement."""
+def velocity_sim_cfg(max_contacts_per_world: int, max_constraint_rows_per_world: int = 300) -> SimCfg:
+    """200 Hz MuJoCo physics. Size the per-world contacts and constraint rows from a measurement (the peaks are
+    logged under Physics/ and printed after a fallen-state collection): rows past `njmax` are dropped."""
     return SimCfg(physics_dt_s=0.005,
-                  solver=SolverCfg(iterations=10, ls_iterations=20, njmax=300, nconmax=max_contacts_per_world))
+                  solver=SolverCfg(iterations=10, ls_iterations=20, njmax=max_constraint_rows_per_world,
+                                   nconmax=max_contacts_per_world))
 
 
 @configclass
