@@ -6,8 +6,10 @@
     python scripts/train.py --task Velocity-T1-v0 --init_policy agile/data/policy/Velocity-T1-v0.pt \
         --init_action_std 0.3
     python scripts/train.py --task Velocity-T1-v0 agent.algorithm.learning_rate=5e-4 env.episode_length_s=20
+    torchrun --standalone --nproc_per_node=2 scripts/train.py --task Velocity-T1-v0 --distributed   # 2 GPUs
 
-Checkpoints, tensorboard logs and the resolved configs go to logs/rsl_rl/<experiment>/<time>_<run>/.
+Checkpoints, tensorboard logs and the resolved configs go to logs/rsl_rl/<experiment>/<time>_<run>/ (with
+--distributed: rank 0's; every rank runs --num_envs envs on cuda:LOCAL_RANK with seed + rank).
 """
 
 from __future__ import annotations
@@ -30,10 +32,12 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
 
     from agile.rl_env.rsl_rl import flatten_groups
 
-    video_cfg = inference_cfg(copy.deepcopy(env_cfg))
-    video_cfg.num_envs = 1
-    video_env = cli.make_env(args.task, video_cfg, device, use_cache=not args.no_cache)
-    os.makedirs(os.path.join(log_dir, "videos"), exist_ok=True)
+    record = log_dir is not None  # distributed: the other ranks learn the same chunks and record nothing
+    if record:
+        video_cfg = inference_cfg(copy.deepcopy(env_cfg))
+        video_cfg.num_envs = 1
+        video_env = cli.make_env(args.task, video_cfg, device, use_cache=not args.no_cache)
+        os.makedirs(os.path.join(log_dir, "videos"), exist_ok=True)
     done = 0
     while done < iterations:
         chunk = min(args.video_interval, iterations - done)
@@ -41,6 +45,8 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
         # RSL-RL leaves the counter on the last iteration done; the next chunk starts one later
         runner.current_learning_iteration += 1
         done += chunk
+        if not record:
+            continue
         policy = runner.get_inference_policy(device=str(video_env.device))
         # a recurrent actor holds the rollout's hidden state (a row per training env): set it aside for the clip
         training_hidden_state = policy.get_hidden_state()
@@ -56,7 +62,45 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
         recorder.close()
         policy.reset(hidden_state=training_hidden_state)
         print(f"[agile] clip: {path}")
-    video_env.close()
+    if record:
+        video_env.close()
+
+
+def distributed_rank(args):
+    """This process's rank when torchrun started it (with --distributed), else None; sets args.device to its own."""
+    from agile.rl_env.rsl_rl.distributed import rank_device, rank_from_env
+
+    rank = rank_from_env()
+    if rank is None:
+        if args.distributed:
+            cli.fail("--distributed: start the processes with torchrun (WORLD_SIZE is unset or 1), e.g. "
+                     "torchrun --standalone --nproc_per_node=2 scripts/train.py --task ... --distributed")
+        return None
+    if not args.distributed:
+        cli.fail(f"WORLD_SIZE={rank.world_size} (torchrun) without --distributed: add --distributed to train "
+                 f"data-parallel")
+    try:
+        args.device = rank_device(rank, args.device)
+    except ValueError as err:
+        cli.fail(str(err))
+    return rank
+
+
+def check_rank_weights(runner, rank) -> None:
+    """Every rank prints the digest of its weights; all must agree (rsl-rl broadcasts rank 0's at the start and
+    all-reduces every gradient, so a difference means the ranks fell out of step)."""
+    import torch
+
+    from agile.rl_env.rsl_rl.distributed import gather_digests, weights_digest
+
+    digest = weights_digest(runner.alg.save())
+    print(f"[agile] rank {rank.rank}: weights sha256 {digest}", flush=True)
+    digests = gather_digests(digest)
+    torch.distributed.destroy_process_group()
+    if len(set(digests)) != 1:
+        cli.fail(f"the {rank.world_size} ranks ended with different weights (sha256 by rank: {digests})")
+    if rank.is_main:
+        print(f"[agile] all {rank.world_size} ranks hold the same weights", flush=True)
 
 
 def initial_actor_checkpoint(checkpoint: dict, path: str, log_dir: str, action_std: float | None) -> dict:
@@ -74,7 +118,8 @@ def initial_actor_checkpoint(checkpoint: dict, path: str, log_dir: str, action_s
         else:
             cli.fail(f"--init_action_std: the actor in {path} has no state-independent std to reset")
         print(f"[agile] action noise reset to std {action_std}")
-    torch.save(checkpoint, os.path.join(log_dir, "init_policy.pt"))
+    if log_dir is not None:
+        torch.save(checkpoint, os.path.join(log_dir, "init_policy.pt"))
     return checkpoint
 
 
@@ -134,13 +179,23 @@ def main(argv=None) -> None:
     parser.add_argument("--teacher", default=None, metavar="PATH",
                         help="distillation tasks: the teacher, a PPO checkpoint of the teacher task or its TorchScript "
                         "export (default: the policy agile ships for the teacher task)")
+    parser.add_argument("--distributed", action="store_true",
+                        help="data-parallel over the processes torchrun starts (one per GPU; --device cpu: gloo on "
+                        "CPU processes): each rank its own --num_envs envs and seed + rank, logs on rank 0")
     cli.add_checkpoint_args(parser)
     args = cli.parse(parser, argv)
+    rank = distributed_rank(args)
 
     multi_agent_task = multi_agent.is_multi_agent(args.task)
     if multi_agent_task:
         multi_agent.check_train_args(args)
+        if rank is not None:
+            cli.fail("--distributed trains single-agent tasks; a multi-agent task trains on one device")
     env_cfg, agent_cfg, device = cli.load_task(args)
+    if rank is not None:
+        env_cfg.seed += rank.rank
+        agent_cfg.seed += rank.rank
+        print(f"[agile] rank {rank.rank} of {rank.world_size} on {device}, seed {env_cfg.seed}", flush=True)
     if args.max_iterations is not None:
         agent_cfg.max_iterations = args.max_iterations
     if args.logger is not None:
@@ -184,8 +239,10 @@ def main(argv=None) -> None:
     env = cli.make_env(args.task, env_cfg, device, use_cache=not args.no_cache)
     print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
           f"obs {env.observation_manager.group_dims}, actions {env.action_manager.total_action_dim}")
-    log_dir = cli.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
-    cli.dump_configs(log_dir, env_cfg, agent_cfg)
+    log_dir = None  # distributed: rank 0 writes the logs, checkpoints and exports
+    if rank is None or rank.is_main:
+        log_dir = cli.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
+        cli.dump_configs(log_dir, env_cfg, agent_cfg)
     if args.inject_nan_actions is None:
         wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
     else:
@@ -196,7 +253,8 @@ def main(argv=None) -> None:
     with cli.quiet_stdout():
         runner = runner_class(agent_cfg)(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
     runner.logger.git_status_repos = cli.git_repos()
-    show_progress(runner, args.progress, args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
+    if log_dir is not None:
+        show_progress(runner, args.progress, args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
     if resume_path:
         print(f"[agile] resuming from {resume_path}")
         restore_runner(runner, resume_contents)  # loaded on the CPU: a GPU run can be resumed on another device
@@ -220,10 +278,13 @@ def main(argv=None) -> None:
         learn_with_clips(runner, args, env_cfg, device, log_dir, agent_cfg.max_iterations)
     else:
         runner.learn(num_learning_iterations=agent_cfg.max_iterations, init_at_random_ep_len=True)
-    from export import export
+    if rank is not None:
+        check_rank_weights(runner, rank)
+    if log_dir is not None:
+        from export import export
 
-    paths = export(args.task, env, agent_cfg, runner, os.path.join(log_dir, "exported"))
-    print(f"[agile] logs and checkpoints in {log_dir}; exported policy in {os.path.dirname(paths['jit'])}")
+        paths = export(args.task, env, agent_cfg, runner, os.path.join(log_dir, "exported"))
+        print(f"[agile] logs and checkpoints in {log_dir}; exported policy in {os.path.dirname(paths['jit'])}")
     env.close()
 
 

@@ -64,6 +64,21 @@ class CheckpointingRunner(OnPolicyRunner):
         self.logger.save_model(path, self.current_learning_iteration)
 
 
+    def _configure_multi_gpu(self) -> None:
+        """rsl-rl's multi-GPU set-up (NCCL, one CUDA device per rank), extended to CPU ranks with gloo."""
+        from agile.rl_env.rsl_rl.distributed import init_cpu_process_group, rank_from_env
+
+        rank = rank_from_env()
+        if rank is None or not str(self.device).startswith("cpu"):
+            super()._configure_multi_gpu()
+            return
+        self.gpu_world_size, self.is_distributed = rank.world_size, True
+        self.gpu_local_rank, self.gpu_global_rank = rank.local_rank, rank.rank
+        self.cfg["multi_gpu"] = {"global_rank": rank.rank, "local_rank": rank.local_rank,
+                                 "world_size": rank.world_size}
+        init_cpu_process_group(rank)
+
+
 class CheckpointingDistillationRunner(CheckpointingRunner, DistillationRunner):
     """The same for distillation (rsl-rl's DistillationRunner refuses to learn before a teacher is loaded)."""
 

@@ -1,0 +1,54 @@
+"""Data-parallel training through torchrun: two CPU ranks with the gloo backend (scripts/train.py --distributed)."""
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+FLAT_T1 = ["--task", "Velocity-T1-v0", "--device", "cpu", "--num_envs", "2", "--progress", "log",
+           "env.scene.terrain=null", "env.curriculum.terrain_levels=null"]
+
+
+def torchrun(*args, nproc=2, timeout=600):
+    command = [sys.executable, "-m", "torch.distributed.run", "--standalone", f"--nproc_per_node={nproc}",
+               "scripts/train.py", "--distributed", *args]
+    result = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+    return result.returncode, result.stdout + result.stderr
+
+
+def digests(out: str) -> dict[int, str]:
+    return {int(r): d for r, d in re.findall(r"\[agile\] rank (\d+): weights sha256 (\w+)", out)}
+
+
+def test_two_ranks_train_resume_and_end_with_the_same_weights(tmp_path):
+    code, out = torchrun(*FLAT_T1, "--max_iterations", "1", "--log_root", str(tmp_path), "--seed", "7")
+    assert code == 0, out[-3000:]
+    # each rank its own seed (its own envs), so the same weights at the end need the all-reduced gradients
+    assert "rank 0 of 2 on cpu, seed 7" in out and "rank 1 of 2 on cpu, seed 8" in out
+    first = digests(out)
+    assert set(first) == {0, 1} and first[0] == first[1], out[-2000:]
+    assert "all 2 ranks hold the same weights" in out
+    runs = list((tmp_path / "velocity_t1").iterdir())
+    assert len(runs) == 1  # rank 0 alone writes logs, checkpoints and the export
+    checkpoint = runs[0] / "model_0.pt"
+    assert checkpoint.is_file() and (runs[0] / "exported" / "policy.pt").is_file()
+
+    code, out = torchrun(*FLAT_T1, "--max_iterations", "1", "--log_root", str(tmp_path), "--checkpoint",
+                         str(checkpoint))
+    assert code == 0, out[-3000:]
+    assert out.count("continuing at iteration 1") == 2  # both ranks resume from rank 0's checkpoint
+    second = digests(out)
+    assert second[0] == second[1] != first[0]
+
+
+def test_distributed_needs_torchrun_and_torchrun_needs_distributed():
+    env = {k: v for k, v in os.environ.items() if k not in ("WORLD_SIZE", "RANK", "LOCAL_RANK")}
+    result = subprocess.run([sys.executable, "scripts/train.py", "--distributed", *FLAT_T1], cwd=ROOT, env=env,
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode != 0 and "start the processes with torchrun" in result.stdout + result.stderr
+    env.update(WORLD_SIZE="2", RANK="0", LOCAL_RANK="0")
+    result = subprocess.run([sys.executable, "scripts/train.py", *FLAT_T1], cwd=ROOT, env=env, capture_output=True,
+                            text=True, timeout=300)
+    assert result.returncode != 0 and "without --distributed" in result.stdout + result.stderr
