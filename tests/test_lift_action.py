@@ -91,13 +91,16 @@ def place(env, heights_m: list[float], yaw_rates_rad_s: list[float] | None = Non
 
 
 def lift_wrench(env) -> torch.Tensor:
-    """(N, 6) the wrench on the head after one env step's lift update and one physics step's wrench."""
+    """(N, 6) the lift's force on the head and its yaw torque on the root (the trunk), after one env step's lift
+    update and one physics step's wrench."""
     robot, lift = env.scene["robot"], env.action_manager.get_term("lift")
-    head = robot.find_bodies("H2")[0][0]
-    robot.body_wrench_w[:, head] = 0.0
+    head, trunk = robot.find_bodies("H2")[0][0], robot.find_bodies("Trunk")[0][0]
+    robot.body_wrench_w[:, [head, trunk]] = 0.0
     lift.apply_actions()
     lift.apply_wrench()
-    return robot.body_wrench_w[:, head].clone()
+    # the head is pulled up, not turned: a torque there would spin it about the neck's weak yaw joint
+    assert not robot.body_wrench_w[:, head, 3:].any() and not robot.body_wrench_w[:, trunk, :3].any()
+    return torch.cat((robot.body_wrench_w[:, head, :3], robot.body_wrench_w[:, trunk, 3:]), dim=1)
 
 
 # -- the lift ------------------------------------------------------------------------------------------------
@@ -115,7 +118,8 @@ def test_lift_force_and_yaw_torque_for_a_known_height_time_and_yaw_rate(env):
     wrench = lift_wrench(env)
     expected = torch.tensor([[0.0, 0.0, 125.0, 0.0, 0.0, -50.0], [0.0, 0.0, 0.0, 0.0, 0.0, 250.0]])
     assert torch.allclose(wrench, expected, atol=0.05), wrench
-    assert not robot.body_wrench_w[:, robot.find_bodies("Trunk")[0][0]].any()  # only the head is lifted
+    others = [b for b in range(robot.num_bodies) if robot.body_names[b] not in ("H2", "Trunk")]
+    assert not robot.body_wrench_w[:, others].any()  # the head is lifted and the trunk damped, nothing else
 
     # at 14 s the target is 0.65 m: 5000 · 0.35 = 1750 N, clamped to 300 N; 0.8 m up, the lift never pulls down
     place(env, [0.3, 0.8], yaw_rates_rad_s=[0.5, -3.0])
@@ -149,8 +153,12 @@ def test_the_lift_acts_in_every_physics_step_of_an_env_step(env):
     env.step(torch.zeros(2, 0))
     head = robot.find_bodies("H2")[0][0]
     head_wrench = robot.body_wrench_w[:, head]
+    trunk_wrench = robot.body_wrench_w[:, robot.find_bodies("Trunk")[0][0]]
     assert head_wrench[:, 2].tolist() == pytest.approx([300.0, 300.0])
-    assert head_wrench[0, 5] < -50.0 and abs(head_wrench[1, 5]) < 1.0  # yaw damping, against the turn
+    # yaw damping against the turn, on the root: 100 N·m·s/rad brakes the lying T1's 1 rad/s within the env step,
+    # and the last physics step's torque is -100 times what is left
+    yaw_rate = robot.root_ang_vel_w[0, 2].item()
+    assert 0.0 < yaw_rate < 0.5 and trunk_wrench[0, 5].item() < -1.0 and abs(trunk_wrench[1, 5]) < 1.0
     # env 1's momentum: (300 N - m·g) · 0.02 s instead of the fall's -m·g · 0.02 s
     mass_kg = robot.body_mass[1].sum()
     com_vel_z = (robot.body_mass[1] * robot.body_vel_w[1, :, 2]).sum() / mass_kg

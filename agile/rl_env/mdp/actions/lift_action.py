@@ -8,7 +8,7 @@ from __future__ import annotations
 import torch
 import warp as wp
 
-from agile.rl_env.mdp.actions.body_wrench import BodyAidAction, write_body_wrench
+from agile.rl_env.mdp.actions.body_wrench import BodyAidAction, BodyWrenchSlot, write_body_wrench
 from agile.utils.config import configclass
 
 __all__ = ["LiftAction", "LiftActionCfg"]
@@ -20,7 +20,9 @@ def _lift_wrench(root_z_w_m: wp.array(dtype=float), root_ang_vel_z_w: wp.array(d
                  scale: wp.array(dtype=float), stiffness_force: float, force_limit_n: float, damping_torque: float,
                  torque_limit_nm: float, body_ids: wp.array(dtype=wp.int32),
                  disturbance_w: wp.array(dtype=wp.spatial_vector), body_f: wp.array(dtype=wp.spatial_vector),
-                 last_total_w: wp.array(dtype=wp.spatial_vector), max_heights_m: wp.array(dtype=float)):
+                 last_total_w: wp.array(dtype=wp.spatial_vector), max_heights_m: wp.array(dtype=float),
+                 yaw_body_ids: wp.array(dtype=wp.int32), yaw_disturbance_w: wp.array(dtype=wp.spatial_vector),
+                 yaw_last_total_w: wp.array(dtype=wp.spatial_vector), yaw_on_lifted_body: int):
     i = wp.tid()
     height_m = root_z_w_m[i] - ground_z_m[i]
     # tracked even while the lift is off: the curriculum judges standing by it
@@ -33,8 +35,14 @@ def _lift_wrench(root_z_w_m: wp.array(dtype=float), root_ang_vel_z_w: wp.array(d
     force_z = wp.clamp(s * stiffness_force * (target_height_m[i] - height_m), 0.0, force_limit)
     # yaw damping only: roll and pitch stay free for the robot to balance
     torque_z = wp.clamp(-s * damping_torque * root_ang_vel_z_w[i], -torque_limit, torque_limit)
-    lift = wp.spatial_vector(wp.vec3(0.0, 0.0, force_z), wp.vec3(0.0, 0.0, torque_z))
-    write_body_wrench(i, body_ids[i], lift, disturbance_w, body_f, last_total_w)
+    if yaw_on_lifted_body != 0:
+        lift = wp.spatial_vector(wp.vec3(0.0, 0.0, force_z), wp.vec3(0.0, 0.0, torque_z))
+        write_body_wrench(i, body_ids[i], lift, disturbance_w, body_f, last_total_w)
+    else:
+        write_body_wrench(i, body_ids[i], wp.spatial_vector(wp.vec3(0.0, 0.0, force_z), wp.vec3(0.0)),
+                          disturbance_w, body_f, last_total_w)
+        write_body_wrench(i, yaw_body_ids[i], wp.spatial_vector(wp.vec3(0.0), wp.vec3(0.0, 0.0, torque_z)),
+                          yaw_disturbance_w, body_f, yaw_last_total_w)
 
 
 class LiftAction(BodyAidAction):
@@ -47,6 +55,7 @@ class LiftAction(BodyAidAction):
       (episode_length_buf · step_dt, as AGILE: fixed within an env step); 0 until start_lifting_time_s;
     - force along world z: clamp(k_force·(target - h), 0, force_limit_n): it lifts, never pushes down;
     - torque about world z: clamp(-d_torque·ω_z, ±torque_limit_nm), ω_z the root's yaw rate: no roll or pitch;
+      on `yaw_damping_body_name` (default the root: see the config field for why not the lifted link);
     k_force, d_torque and both limits times `scale` (1 at first; the curriculum lowers it through `scale_forces`;
     a (1,) device tensor, so that a captured step sees its changes). AGILE's `damping_forces` (d_force) is
     configured but not used by its lift: no vertical damping.
@@ -54,9 +63,10 @@ class LiftAction(BodyAidAction):
     Random pushes on the same link add to the lift (`BodyWrenchSlot`, as the harness).
 
     The yaw damping is explicit (from the yaw rate before the physics step), so it is stable only while
-    d_torque·physics_dt < 2·I_yaw: lying down T1 is far inside that, but upright (I_yaw about 0.5 kg·m² rigid, less
-    with its joints compliant) AGILE's 100 N·m·s/rad at 5 ms overshoots and flips the spin each physics step
-    (measured on CPU: 1 → -2.0 → 4.1 rad/s), bounded by the torque limit, until the curriculum lowers the scale.
+    d_torque·physics_dt < 2·I_yaw of the body it acts on and what holds to it: lying down T1 is far inside that,
+    but upright (I_yaw about 0.5 kg·m² rigid, less with its joints compliant) AGILE's 100 N·m·s/rad at 5 ms
+    overshoots and flips the spin each physics step (measured on CPU: 1 → -2.0 → 4.1 rad/s), bounded by the torque
+    limit, until the curriculum lowers the scale.
     """
 
     def __init__(self, cfg: LiftActionCfg, env):
@@ -70,6 +80,12 @@ class LiftAction(BodyAidAction):
         """(N,) highest root height above the terrain in the current episode [m] (AGILE `max_heights`), over
         every physics step; 0 at the episode's start. The curriculum counts an episode as standing by it."""
         slot = self.wrench_slot
+        yaw_on_lifted_body = cfg.yaw_damping_body_name is not None and \
+            self.robot.find_bodies(cfg.yaw_damping_body_name)[0] == [self.body_id]
+        self.yaw_wrench_slot = slot
+        if not yaw_on_lifted_body:
+            self.yaw_wrench_slot = BodyWrenchSlot(env, self.robot, self._yaw_body_id(cfg))
+        yaw = self.yaw_wrench_slot
         # the root's height and yaw rate, read in place from the simulation state at every physics step
         self.kernel = _lift_wrench
         self.kernel_inputs = [wp.from_torch(self.robot.root_pos_w[:, 2]),
@@ -77,8 +93,18 @@ class LiftAction(BodyAidAction):
                               wp.from_torch(self.target_height_m), wp.from_torch(self.scale),
                               cfg.stiffness_force_n_per_m, cfg.force_limit_n, cfg.damping_torque_nm_s_per_rad,
                               cfg.torque_limit_nm, slot.global_body_ids_wp, slot.disturbance_w_wp, env.sim.state.body_f,
-                              slot.last_total_w_wp, wp.from_torch(self.max_heights_m)]
+                              slot.last_total_w_wp, wp.from_torch(self.max_heights_m), yaw.global_body_ids_wp,
+                              yaw.disturbance_w_wp, yaw.last_total_w_wp, int(yaw_on_lifted_body)]
         self.start_hook()
+
+    def _yaw_body_id(self, cfg) -> int:
+        if cfg.yaw_damping_body_name is None:
+            return 0  # the root body
+        ids, names = self.robot.find_bodies(cfg.yaw_damping_body_name)
+        if len(ids) != 1:
+            raise ValueError(f"lift yaw_damping_body_name '{cfg.yaw_damping_body_name}' must match one body, "
+                             f"matched {names}")
+        return ids[0]
 
     def apply_actions(self) -> None:
         """Once per env step, before the physics: the target height, the terrain height, and the current push."""
@@ -88,6 +114,8 @@ class LiftAction(BodyAidAction):
         self.target_height_m.copy_(progress * cfg.target_height_m)
         self.terrain.update()
         self.wrench_slot.update_disturbance()
+        if self.yaw_wrench_slot is not self.wrench_slot:
+            self.yaw_wrench_slot.update_disturbance()
 
     def reset(self, env_mask: torch.Tensor) -> None:
         """A new episode: its highest height starts again from 0 (AGILE)."""
@@ -110,6 +138,11 @@ class LiftActionCfg:
     force_limit_n: float = 300.0
     damping_torque_nm_s_per_rad: float = 100.0
     torque_limit_nm: float = 250.0
+    yaw_damping_body_name: str | None = None
+    """The body the yaw-damping torque acts on; None: the root (the body whose yaw rate it damps). AGILE puts it on
+    the lifted link, which on T1 is the head: the neck's yaw actuator holds a few N·m, so up to 250 N·m on the head
+    spins it about the neck (344 rad/s measured on CPU, an upright T1 at rest; worlds past 1,000 rad/s count as
+    unstable, 4.5-30% of episode ends in a GPU trial). Name the lifted link ("H2") for AGILE's behaviour."""
     target_height_m: float = 0.65
     """Root height above the terrain the target rises to."""
     start_lifting_time_s: float = 3.0
