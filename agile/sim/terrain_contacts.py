@@ -115,31 +115,49 @@ def _probe(shape_type: int, scale: wp.vec3, pose: wp.transform, slot: int):
     return point, radius
 
 
+@wp.struct
+class _ContactBuffer:
+    """A `newton.Contacts` buffer's rigid-contact arrays, its counter and our count of contacts that found it full."""
+
+    contact_max: int
+    contact_count: wp.array(dtype=wp.int32)
+    dropped: wp.array(dtype=wp.int32)
+    shape0: wp.array(dtype=wp.int32)
+    shape1: wp.array(dtype=wp.int32)
+    point0: wp.array(dtype=wp.vec3)
+    point1: wp.array(dtype=wp.vec3)
+    offset0: wp.array(dtype=wp.vec3)
+    offset1: wp.array(dtype=wp.vec3)
+    normal: wp.array(dtype=wp.vec3)
+    margin0: wp.array(dtype=wp.float32)
+    margin1: wp.array(dtype=wp.float32)
+    tids: wp.array(dtype=wp.int32)
+
+
 @wp.func
-def _write(index: int, shape: int, terrain_shape: int, body: int, body_q: wp.array(dtype=wp.transform),
-           core_w: wp.vec3, surface_w: wp.vec3, normal: wp.vec3, radius: float, margin0: float, margin1: float,
-           out_shape0: wp.array(dtype=wp.int32), out_shape1: wp.array(dtype=wp.int32),
-           out_point0: wp.array(dtype=wp.vec3), out_point1: wp.array(dtype=wp.vec3),
-           out_offset0: wp.array(dtype=wp.vec3), out_offset1: wp.array(dtype=wp.vec3),
-           out_normal: wp.array(dtype=wp.vec3), out_margin0: wp.array(dtype=wp.float32),
-           out_margin1: wp.array(dtype=wp.float32), out_tids: wp.array(dtype=wp.int32)):
-    """Newton's contact layout: shape0's core point (a sphere's centre) in its body frame with the offset to its
-    surface, the terrain's point in the world frame (the terrain has no body), the normal from shape0 to the
-    terrain, each side's thickness (radius + shape margin)."""
+def _append(out: _ContactBuffer, shape: int, terrain_shape: int, body: int, body_q: wp.array(dtype=wp.transform),
+            core_w: wp.vec3, surface_w: wp.vec3, normal: wp.vec3, radius: float, margin0: float, margin1: float):
+    """Append one contact in Newton's layout: shape0's core point (a sphere's centre) in its body frame with the
+    offset to its surface, the terrain's point in the world frame (the terrain has no body), the normal from shape0
+    to the terrain, each side's thickness (radius + shape margin). A full buffer counts the contact as dropped."""
+    index = wp.atomic_add(out.contact_count, 0, 1)
+    if index >= out.contact_max:
+        wp.atomic_add(out.dropped, 0, 1)
+        return
     to_body = wp.transform_identity()
     if body >= 0:
         to_body = wp.transform_inverse(body_q[body])
     thickness0 = radius + margin0
-    out_shape0[index] = shape
-    out_shape1[index] = terrain_shape
-    out_point0[index] = wp.transform_point(to_body, core_w)
-    out_point1[index] = surface_w
-    out_offset0[index] = wp.transform_vector(to_body, thickness0 * normal)
-    out_offset1[index] = -margin1 * normal
-    out_normal[index] = normal
-    out_margin0[index] = thickness0
-    out_margin1[index] = margin1
-    out_tids[index] = 0
+    out.shape0[index] = shape
+    out.shape1[index] = terrain_shape
+    out.point0[index] = wp.transform_point(to_body, core_w)
+    out.point1[index] = surface_w
+    out.offset0[index] = wp.transform_vector(to_body, thickness0 * normal)
+    out.offset1[index] = -margin1 * normal
+    out.normal[index] = normal
+    out.margin0[index] = thickness0
+    out.margin1[index] = margin1
+    out.tids[index] = 0
 
 
 @wp.kernel(enable_backward=False)
@@ -147,13 +165,7 @@ def _probe_contacts(
     shape_ids: wp.array(dtype=int), body_q: wp.array(dtype=wp.transform), shape_body: wp.array(dtype=int),
     shape_transform: wp.array(dtype=wp.transform), shape_type: wp.array(dtype=int),
     shape_scale: wp.array(dtype=wp.vec3), shape_margin: wp.array(dtype=float), shape_gap: wp.array(dtype=float),
-    heights: wp.array2d(dtype=float), origin: wp.vec2, spacing: float, terrain_shape: int, contact_max: int,
-    contact_count: wp.array(dtype=wp.int32), dropped: wp.array(dtype=wp.int32),
-    out_shape0: wp.array(dtype=wp.int32), out_shape1: wp.array(dtype=wp.int32),
-    out_point0: wp.array(dtype=wp.vec3), out_point1: wp.array(dtype=wp.vec3),
-    out_offset0: wp.array(dtype=wp.vec3), out_offset1: wp.array(dtype=wp.vec3),
-    out_normal: wp.array(dtype=wp.vec3), out_margin0: wp.array(dtype=wp.float32),
-    out_margin1: wp.array(dtype=wp.float32), out_tids: wp.array(dtype=wp.int32),
+    heights: wp.array2d(dtype=float), origin: wp.vec2, spacing: float, terrain_shape: int, out: _ContactBuffer,
 ):
     k, slot = wp.tid()
     shape = shape_ids[k]
@@ -166,13 +178,8 @@ def _probe_contacts(
     separation = above - radius
     if separation > shape_gap[shape] + shape_gap[terrain_shape]:
         return
-    index = wp.atomic_add(contact_count, 0, 1)
-    if index >= contact_max:
-        wp.atomic_add(dropped, 0, 1)
-        return
-    _write(index, shape, terrain_shape, shape_body[shape], body_q, point, point - above * up, -up, radius,
-           shape_margin[shape], shape_margin[terrain_shape], out_shape0, out_shape1, out_point0, out_point1,
-           out_offset0, out_offset1, out_normal, out_margin0, out_margin1, out_tids)
+    _append(out, shape, terrain_shape, shape_body[shape], body_q, point, point - above * up, -up, radius,
+            shape_margin[shape], shape_margin[terrain_shape])
 
 
 @wp.kernel(enable_backward=False)
@@ -180,13 +187,7 @@ def _box_sample_contacts(
     box_ids: wp.array(dtype=int), window: int, body_q: wp.array(dtype=wp.transform), shape_body: wp.array(dtype=int),
     shape_transform: wp.array(dtype=wp.transform), shape_scale: wp.array(dtype=wp.vec3),
     shape_margin: wp.array(dtype=float), shape_gap: wp.array(dtype=float),
-    heights: wp.array2d(dtype=float), origin: wp.vec2, spacing: float, terrain_shape: int, contact_max: int,
-    contact_count: wp.array(dtype=wp.int32), dropped: wp.array(dtype=wp.int32),
-    out_shape0: wp.array(dtype=wp.int32), out_shape1: wp.array(dtype=wp.int32),
-    out_point0: wp.array(dtype=wp.vec3), out_point1: wp.array(dtype=wp.vec3),
-    out_offset0: wp.array(dtype=wp.vec3), out_offset1: wp.array(dtype=wp.vec3),
-    out_normal: wp.array(dtype=wp.vec3), out_margin0: wp.array(dtype=wp.float32),
-    out_margin1: wp.array(dtype=wp.float32), out_tids: wp.array(dtype=wp.int32),
+    heights: wp.array2d(dtype=float), origin: wp.vec2, spacing: float, terrain_shape: int, out: _ContactBuffer,
 ):
     k, cell = wp.tid()
     shape = box_ids[k]
@@ -229,13 +230,8 @@ def _box_sample_contacts(
     face_normal[best_axis] = best_sign
     face_w = wp.transform_point(pose, face_local)
     normal = wp.quat_rotate(wp.transform_get_rotation(pose), face_normal)
-    index = wp.atomic_add(contact_count, 0, 1)
-    if index >= contact_max:
-        wp.atomic_add(dropped, 0, 1)
-        return
-    _write(index, shape, terrain_shape, shape_body[shape], body_q, face_w, sample, normal, 0.0,
-           shape_margin[shape], shape_margin[terrain_shape], out_shape0, out_shape1, out_point0, out_point1,
-           out_offset0, out_offset1, out_normal, out_margin0, out_margin1, out_tids)
+    _append(out, shape, terrain_shape, shape_body[shape], body_q, face_w, sample, normal, 0.0,
+            shape_margin[shape], shape_margin[terrain_shape])
 
 
 class TerrainContacts:
@@ -268,28 +264,33 @@ class TerrainContacts:
         self._dropped = wp.zeros(1, dtype=wp.int32, device=device)
         self.dropped_contacts = wp.to_torch(self._dropped)
         """(1,) int32: contacts that found the buffer full since the start (not written; raise nconmax)."""
+        self._out = self._buffer()
 
-    def _outputs(self) -> list:
+    def _buffer(self) -> _ContactBuffer:
         c = self.contacts
-        return [c.rigid_contact_count, self._dropped, c.rigid_contact_shape0, c.rigid_contact_shape1,
-                c.rigid_contact_point0, c.rigid_contact_point1, c.rigid_contact_offset0, c.rigid_contact_offset1,
-                c.rigid_contact_normal, c.rigid_contact_margin0, c.rigid_contact_margin1, c.rigid_contact_tids]
+        out = _ContactBuffer()
+        out.contact_max = c.rigid_contact_max
+        out.contact_count, out.dropped = c.rigid_contact_count, self._dropped
+        out.shape0, out.shape1 = c.rigid_contact_shape0, c.rigid_contact_shape1
+        out.point0, out.point1 = c.rigid_contact_point0, c.rigid_contact_point1
+        out.offset0, out.offset1 = c.rigid_contact_offset0, c.rigid_contact_offset1
+        out.normal, out.margin0, out.margin1 = c.rigid_contact_normal, c.rigid_contact_margin0, c.rigid_contact_margin1
+        out.tids = c.rigid_contact_tids
+        return out
 
     def collide(self, state: newton.State) -> None:
         """Append this step's terrain contacts after those already in the buffer (clear it first)."""
         m = self.model
-        terrain = [self._heights, self._origin, self._spacing, self.terrain_shape, self.contacts.rigid_contact_max]
+        terrain = [self._heights, self._origin, self._spacing, self.terrain_shape, self._out]
         if self._shape_ids.shape[0]:
             wp.launch(_probe_contacts, dim=(self._shape_ids.shape[0], PROBES_PER_SHAPE), device=m.device,
                       inputs=[self._shape_ids, state.body_q, m.shape_body, m.shape_transform, m.shape_type,
-                              m.shape_scale, m.shape_margin, m.shape_gap, *terrain],
-                      outputs=self._outputs())
+                              m.shape_scale, m.shape_margin, m.shape_gap, *terrain])
         if self._box_ids.shape[0]:
             wp.launch(_box_sample_contacts, dim=(self._box_ids.shape[0], self._window * self._window),
                       device=m.device,
                       inputs=[self._box_ids, self._window, state.body_q, m.shape_body, m.shape_transform,
-                              m.shape_scale, m.shape_margin, m.shape_gap, *terrain],
-                      outputs=self._outputs())
+                              m.shape_scale, m.shape_margin, m.shape_gap, *terrain])
 
 
 def split_terrain_pairs(model: newton.Model, terrain_shape: int) -> tuple[list[int], np.ndarray]:
