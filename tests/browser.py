@@ -34,6 +34,10 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
+STOP_TIMEOUT_S = 120
+"""play.py's shutdown after Ctrl-C took over 60 s once on a loaded 2-core machine."""
+
+
 class PlayProcess:
     """`scripts/play.py` with the viewer on a free port; stopped with Ctrl-C (SIGINT) at exit."""
 
@@ -59,7 +63,14 @@ class PlayProcess:
     def stop(self) -> str:
         """Ctrl-C, then the rest of its output."""
         self.proc.send_signal(signal.SIGINT)
-        rest, _ = self.proc.communicate(timeout=60)
+        try:
+            rest, _ = self.proc.communicate(timeout=STOP_TIMEOUT_S)
+        except subprocess.TimeoutExpired:  # never leave a server running behind a failed test
+            self.proc.kill()
+            rest, _ = self.proc.communicate()
+            self.output.append(rest)
+            raise TimeoutError(f"play.py did not exit within {STOP_TIMEOUT_S} s of Ctrl-C (killed):\n"
+                               f"{''.join(self.output)}") from None
         self.output.append(rest)
         return "".join(self.output)
 
