@@ -5,6 +5,7 @@ import math
 import newton
 import numpy as np
 import pytest
+import torch
 import warp as wp
 
 from agile.sim import SceneCfg, SimCfg, Simulation
@@ -172,3 +173,19 @@ def test_unknown_terrain_collision_lists_the_valid_names():
     scene = SceneCfg(terrain=TerrainGeneratorCfg(size_m=2.0, num_rows=1, num_cols=1), terrain_collision="mujoco")
     with pytest.raises(ConfigError, match=r"scene.terrain_collision must be one of \['probes', 'newton_pipeline'\]"):
         Simulation(SimCfg(), scene, 1, "cpu", 0.02)
+
+
+def test_two_entities_on_a_terrain_rest_on_each_other_and_on_the_terrain():
+    # the box-box pair goes through Newton's pipeline (explicit pairs), each box and the terrain through the probes
+    from agile.sim import BoxShapeCfg, RigidObjectCfg
+
+    flat_cells = TerrainGeneratorCfg(size_m=2.0, num_rows=1, num_cols=1, border_width_m=0.5)
+    scene = SceneCfg(terrain=flat_cells, entities={
+        "lower": RigidObjectCfg(shape=BoxShapeCfg(size_m=(0.2, 0.2, 0.2)), mass_kg=1.0, init_pos_m=(0.0, 0.0, 0.11)),
+        "upper": RigidObjectCfg(shape=BoxShapeCfg(size_m=(0.1, 0.1, 0.1)), mass_kg=0.5, init_pos_m=(0.0, 0.0, 0.27))})
+    sim = Simulation(SimCfg(use_graph=False), scene, 2, "cpu", 0.02)
+    assert sim.collision_pipeline is not None and sim.terrain_contacts is not None
+    sim.step(200)  # 1 s
+    ground_z = sim.env_origins[:, 2]
+    assert torch.allclose(sim.scene["lower"].root_pos_w[:, 2] - ground_z, torch.full((2,), 0.1), atol=3e-3)
+    assert torch.allclose(sim.scene["upper"].root_pos_w[:, 2] - ground_z, torch.full((2,), 0.25), atol=4e-3)
