@@ -8,7 +8,8 @@ managers, from the state the env has after one second of random actions), env.st
 its ratio to raw physics, PPO training (rollout + update) and its ratio, startup (gym.make to the first step
 done), device memory in use, the share of the env step spent in the explicit actuators (raw physics with and
 without them), the solver iterations of the slowest world under raw physics and under env.step (untimed),
-and where a training iteration's time goes (env steps, policy inference and rollout storage, PPO update). For a task on a terrain, the raw
+and where a training iteration's time goes (env steps, policy inference and rollout storage, PPO update), and the
+peak demand on the solver's constraint rows (njmax) and contacts. For a task on a terrain, the raw
 physics of the same robot on flat ground (no terrain, contact sensor or height rays) is measured first in a
 separate world, and the env.step and training rates are also given as ratios to it.
 """
@@ -196,6 +197,12 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     train = n * agent_cfg.num_steps_per_env / iteration_s
     phases = time_training_phases(runner, wrapped, train_iterations)
     memory = device_memory_used_gb(env.device)
+    # the demand on the solver's fixed buffers over everything above (random actions, falls, training)
+    capacity = env.sim.capacity
+    buffers = {"peak_constraint_rows_per_world": int(capacity.peak_constraint_rows.item()), "njmax": capacity.njmax,
+               "constraint_row_overflows": int(capacity.constraint_row_overflows.item()),
+               "peak_contacts_mean_per_world": int(capacity.peak_contacts.item()) / n,
+               "contact_capacity_per_world": capacity.contact_capacity / n}
     env.close()
     actuator_s = n / raw - n / raw_without_actuators  # per env step
     result = {"num_envs": n, "raw_physics": raw, "raw_physics_without_actuators": raw_without_actuators,
@@ -203,7 +210,8 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
               "train": train, "train_ratio": train / raw, "startup_s": startup_s, "device_memory_gb": memory,
               "solver_iterations_slowest_world_raw": raw_iterations,
               "solver_iterations_slowest_world_env_step": env_step_iterations,
-              "iteration_s": iteration_s, **{f"iteration_{phase}": value for phase, value in phases.items()}}
+              "iteration_s": iteration_s, **{f"iteration_{phase}": value for phase, value in phases.items()},
+              **buffers}
     if flat_raw is not None:
         result.update(flat_raw_physics=flat_raw, env_step_ratio_to_flat=full / flat_raw,
                       train_ratio_to_flat=train / flat_raw)
@@ -258,6 +266,13 @@ def main(argv=None) -> None:
     for r in rows:
         print(f"{r['num_envs']:>7} {r['solver_iterations_slowest_world_raw']:>12.1f} "
               f"{r['solver_iterations_slowest_world_env_step']:>10.1f}")
+    print("\nthe solver's buffers per world: peak demand over the run (random actions, falls, training) and size")
+    print(f"{'envs':>7} {'rows':>6} {'njmax':>6} {'over':>6} {'contacts':>9} {'capacity':>9}"
+          "  (contacts: all worlds' peak / worlds)")
+    for r in rows:
+        print(f"{r['num_envs']:>7} {r['peak_constraint_rows_per_world']:>6} {r['njmax']:>6} "
+              f"{r['constraint_row_overflows']:>6} {r['peak_contacts_mean_per_world']:>9.1f} "
+              f"{r['contact_capacity_per_world']:>9.0f}")
     flat_rows = [r for r in rows if "flat_raw_physics" in r]
     if flat_rows:
         print("\nthe same robot on flat ground (raw physics) and the ratios to it")

@@ -187,6 +187,10 @@ def test_benchmark_runs_on_cpu(tmp_path):
     code, out = run("scripts/benchmark.py", "--task", "Velocity-T1-v0", "--device", "cpu", "--num_envs", "2",
                     "--steps", "5", "--train_iterations", "1", "--out", str(out_file))
     assert code == 0 and out_file.is_file(), out
+    row = json.loads(out_file.read_text())["results"][0]
+    # T1 on its terrain touches the ground with both feet: rows and contacts were used, none past the cap
+    assert 0 < row["peak_constraint_rows_per_world"] <= row["njmax"] and row["constraint_row_overflows"] == 0
+    assert 0 < row["peak_contacts_mean_per_world"] <= row["contact_capacity_per_world"]
 
 
 def test_play_and_eval_run_a_checkpoint(trained_run, tmp_path):
