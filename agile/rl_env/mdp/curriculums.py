@@ -9,6 +9,28 @@ import torch
 from agile.rl_env.managers import ManagerTermBase
 
 
+class EpisodeOutcomeCounter:
+    """AGILE's terrain-row rule, shared by the terrain curricula: per env, the successful and failed episodes since
+    the last move; a move up after `n_successes` successes, down after `n_failures` failures, each move clearing
+    both counts."""
+
+    def __init__(self, num_envs: int, device):
+        self.num_successes = torch.zeros(num_envs, dtype=torch.long, device=device)
+        self.num_failures = torch.zeros(num_envs, dtype=torch.long, device=device)
+
+    def count(self, env_mask: torch.Tensor, succeeded: torch.Tensor, failed: torch.Tensor, n_successes: int,
+              n_failures: int) -> tuple[torch.Tensor, torch.Tensor]:
+        """Count the episodes ending where env_mask is True; (move_up, move_down) masks (no host sync)."""
+        self.num_successes.add_((env_mask & succeeded).long())
+        self.num_failures.add_((env_mask & failed).long())
+        move_up = env_mask & (self.num_successes >= n_successes)
+        move_down = env_mask & (self.num_failures >= n_failures)
+        moved = move_up | move_down
+        self.num_successes.masked_fill_(moved, 0)
+        self.num_failures.masked_fill_(moved, 0)
+        return move_up, move_down
+
+
 class update_reward_weight_step(ManagerTermBase):  # noqa: N801 (AGILE's name)
     """Ramp a reward weight from its configured value to `terminal_weight` over `num_steps` env steps,
     starting at `start_step`; linearly, or linearly in log|w| (same sign at both ends)."""
@@ -55,8 +77,8 @@ class terrain_levels_vel(ManagerTermBase):  # noqa: N801 (Isaac Lab's name)
         if env.sim.terrain is None:
             raise ValueError("terrain_levels_vel needs a terrain (SimCfg.terrain)")
         n = env.num_envs
-        self.num_successes = torch.zeros(n, dtype=torch.long, device=env.device)
-        self.num_failures = torch.zeros(n, dtype=torch.long, device=env.device)
+        self.outcomes = EpisodeOutcomeCounter(n, env.device)
+        self.num_successes, self.num_failures = self.outcomes.num_successes, self.outcomes.num_failures
         self.traveled_distance_m = torch.zeros(n, device=env.device)
         """Displacement of the finished command pieces of the current episode."""
         self.piece_start_xy_w = torch.zeros(n, 2, device=env.device)
@@ -82,13 +104,8 @@ class terrain_levels_vel(ManagerTermBase):  # noqa: N801 (Isaac Lab's name)
         self.last_command.copy_(command)
         distance_m = self.traveled_distance_m + torch.norm(pos_xy - self.piece_start_xy_w, dim=1)
 
-        self.num_successes.add_((env_mask & (distance_m > move_up_distance_m)).long())
-        self.num_failures.add_((env_mask & (distance_m < move_down_distance_m)).long())
-        move_up = env_mask & (self.num_successes >= n_successes)
-        move_down = env_mask & (self.num_failures >= n_failures)
-        moved = move_up | move_down
-        self.num_successes.masked_fill_(moved, 0)
-        self.num_failures.masked_fill_(moved, 0)
+        move_up, move_down = self.outcomes.count(env_mask, distance_m > move_up_distance_m,
+                                                 distance_m < move_down_distance_m, n_successes, n_failures)
         if p_random_move_up > 0.0:
             move_up = move_up | (env_mask & ~move_down
                                  & (torch.rand(env.num_envs, device=env.device) < p_random_move_up))

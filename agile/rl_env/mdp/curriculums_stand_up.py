@@ -7,6 +7,7 @@ from __future__ import annotations
 import torch
 
 from agile.rl_env.managers import ManagerTermBase, SceneEntityCfg
+from agile.rl_env.mdp.curriculums import EpisodeOutcomeCounter
 from agile.rl_env.mdp.observations import ROBOT, base_height_above_ground
 
 __all__ = ["adaptive_lift_curriculum", "terrain_levels_standing_at_timeout"]
@@ -74,9 +75,8 @@ class terrain_levels_standing_at_timeout(ManagerTermBase):  # noqa: N801 (AGILE'
         super().__init__(cfg, env)
         if env.sim.terrain is None:
             raise ValueError("terrain_levels_standing_at_timeout needs a terrain (SimCfg.terrain)")
-        n = env.num_envs
-        self.num_successes = torch.zeros(n, dtype=torch.long, device=env.device)
-        self.num_failures = torch.zeros(n, dtype=torch.long, device=env.device)
+        self.outcomes = EpisodeOutcomeCounter(env.num_envs, env.device)
+        self.num_successes, self.num_failures = self.outcomes.num_successes, self.outcomes.num_failures
 
     def __call__(self, env, env_mask, min_height_m: float = 0.52,
                  sensor_name: str | None = "height_measurement_sensor",
@@ -84,12 +84,6 @@ class terrain_levels_standing_at_timeout(ManagerTermBase):  # noqa: N801 (AGILE'
                  n_failures: int = 5) -> torch.Tensor:
         standing = base_height_above_ground(env, asset_cfg, sensor_name) > min_height_m
         succeeded = env.termination_manager.time_outs & standing
-        self.num_successes.add_((env_mask & succeeded).long())
-        self.num_failures.add_((env_mask & ~succeeded).long())
-        move_up = env_mask & (self.num_successes >= n_successes)
-        move_down = env_mask & (self.num_failures >= n_failures)
-        moved = move_up | move_down
-        self.num_successes.masked_fill_(moved, 0)
-        self.num_failures.masked_fill_(moved, 0)
+        move_up, move_down = self.outcomes.count(env_mask, succeeded, ~succeeded, n_successes, n_failures)
         env.sim.update_terrain_levels(move_up, move_down)
         return env.sim.terrain_levels.float().mean()

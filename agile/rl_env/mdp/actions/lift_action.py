@@ -80,11 +80,9 @@ class LiftAction(BodyAidAction):
         """(N,) highest root height above the terrain in the current episode [m] (AGILE `max_heights`), over
         every physics step; 0 at the episode's start. The curriculum counts an episode as standing by it."""
         slot = self.wrench_slot
-        yaw_on_lifted_body = cfg.yaw_damping_body_name is not None and \
-            self.robot.find_bodies(cfg.yaw_damping_body_name)[0] == [self.body_id]
-        self.yaw_wrench_slot = slot
-        if not yaw_on_lifted_body:
-            self.yaw_wrench_slot = BodyWrenchSlot(env, self.robot, self._yaw_body_id(cfg))
+        yaw_body_id = self._yaw_body_id(cfg)
+        yaw_on_lifted_body = yaw_body_id == self.body_id
+        self.yaw_wrench_slot = slot if yaw_on_lifted_body else BodyWrenchSlot(env, self.robot, yaw_body_id)
         yaw = self.yaw_wrench_slot
         # the root's height and yaw rate, read in place from the simulation state at every physics step
         self.kernel = _lift_wrench
