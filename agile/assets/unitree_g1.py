@@ -98,6 +98,16 @@ def _armature_set() -> dict:
             "waist_arms": group(ImplicitActuatorCfg, waist_and_arms)}
 
 
+def _beyondmimic_set() -> dict:
+    """AGILE `G1_29DOF_BeyondMimic` (motion tracking): the armature-derived gains of `_armature_set` on the
+    solver's implicit PD for every joint, with no delay (AGILE sets min_delay = max_delay = 0)."""
+    groups = ("hip_pitch_yaw", "hip_roll_knee", "ankles", "waist_roll_pitch", "waist_yaw", "arms", "wrists")
+    return {group: ImplicitActuatorCfg(joint_names_expr=[expr], stiffness=ARMATURE_GAINS[expr][0],
+                                       damping=ARMATURE_GAINS[expr][1], armature=armature, effort_limit=effort,
+                                       velocity_limit=velocity)
+            for group, (expr, (armature, effort, velocity)) in zip(groups, ARMATURE_BY_GROUP.items(), strict=True)}
+
+
 def _implicit_set() -> dict:
     """The DC-motor gains handed to the solver's implicit PD."""
     return {"legs": ImplicitActuatorCfg(joint_names_expr=[LEG_JOINTS], armature=ARMATURE, **LEGS),
@@ -107,7 +117,8 @@ def _implicit_set() -> dict:
 
 
 ACTUATOR_SETS = {"delayed_dc_motor": _delayed_dc_motor_set, "armature_delayed_implicit": _armature_set,
-                 "implicit": _implicit_set}
+                 "implicit": _implicit_set,
+                 "beyondmimic": _beyondmimic_set}
 
 
 def g1_robot_cfg(actuators: str = "delayed_dc_motor") -> ArticulationCfg:
