@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 from agile.actuators import (DelayedDCMotorCfg, DelayedImplicitActuatorCfg, ImplicitActuatorCfg, action_scale,
                              armature_gains)
 from agile.assets.files import asset_file
@@ -58,6 +60,30 @@ def _delayed_dc_motor_set() -> dict:
             "feet": group(FEET_JOINTS, FEET, 80.0, MAX_DELAY_PHYSICS_STEPS),
             "waist": group(WAIST_JOINTS, WAIST, 120.0, MAX_DELAY_PHYSICS_STEPS),
             "arms": group(ARM_JOINTS, ARMS, 40.0, 0)}
+
+
+# AGILE `G1_29DOF_HEIGHT_TRACKING` (V1.3, agile_tasks.md 2.5): the DC-motor G1 made softer for sitting down and
+# lying relaxed. The reference lists knee kp 100 / kd 2.5, waist 100 / 2.5, arms 20 / 0.5, saturation 130 and
+# friction 0.01 without naming the groups of the last two: here the leg saturation (180 N·m) becomes 130 and every
+# joint gets 0.01 N·m of dry friction.
+HEIGHT_TRACKING_KNEE_GAINS = dict(stiffness=100.0, damping=2.5)
+HEIGHT_TRACKING_WAIST_GAINS = dict(stiffness=100.0, damping=2.5)
+HEIGHT_TRACKING_ARM_GAINS = dict(stiffness=20.0, damping=0.5)
+HEIGHT_TRACKING_LEG_SATURATION_NM = 130.0
+HEIGHT_TRACKING_JOINT_FRICTION_NM = 0.01
+
+
+def _height_tracking_set() -> dict:
+    """The delayed DC-motor set with AGILE's softer height-tracking gains (see the constants above)."""
+    groups = _delayed_dc_motor_set()
+    legs = groups["legs"]
+    legs.stiffness = {**legs.stiffness, ".*_knee_joint": HEIGHT_TRACKING_KNEE_GAINS["stiffness"]}
+    legs.damping = {**legs.damping, ".*_knee_joint": HEIGHT_TRACKING_KNEE_GAINS["damping"]}
+    legs.saturation_effort = HEIGHT_TRACKING_LEG_SATURATION_NM
+    groups["waist"] = dataclasses.replace(groups["waist"], **HEIGHT_TRACKING_WAIST_GAINS)
+    groups["arms"] = dataclasses.replace(groups["arms"], **HEIGHT_TRACKING_ARM_GAINS)
+    return {name: dataclasses.replace(group, friction=HEIGHT_TRACKING_JOINT_FRICTION_NM)
+            for name, group in groups.items()}
 
 
 # Motor reflected inertias [kg·m²] (BeyondMimic), gains from armature: kp = J·ωn², kd = 2ζ·J·ωn
@@ -117,7 +143,7 @@ def _implicit_set() -> dict:
 
 
 ACTUATOR_SETS = {"delayed_dc_motor": _delayed_dc_motor_set, "armature_delayed_implicit": _armature_set,
-                 "implicit": _implicit_set,
+                 "implicit": _implicit_set, "height_tracking": _height_tracking_set,
                  "beyondmimic": _beyondmimic_set}
 
 

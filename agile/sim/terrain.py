@@ -424,6 +424,10 @@ STAND_UP_ROUGH_TERRAIN_CFG = TerrainGeneratorCfg(
     },
 )
 
+# AGILE V1.3 HeightTracking-G1's terrain: the reference gives its grid (8 x 8 m cells, 8 rows x 9 columns: 72 tiles)
+# but not its sub-terrains, so it is T1's stand-up terrain, which has the same grid.
+STAND_UP_ROUGH_TERRAIN_G1_CFG = STAND_UP_ROUGH_TERRAIN_CFG
+
 # Isaac Lab ROUGH_TERRAINS_CFG, all types this generator has (its mesh stairs and boxes as height fields).
 ROUGH_TERRAINS_CFG = TerrainGeneratorCfg(
     size_m=8.0, num_rows=10, num_cols=20, horizontal_scale_m=0.1,

@@ -11,3 +11,7 @@ from agile.rl_env.mdp.terminations import *  # noqa: F401,F403
 from agile.rl_env.fallen_states.reset import *  # noqa: F401,F403
 from agile.rl_env.mdp.rewards_stand_up import *  # noqa: F401,F403
 from agile.rl_env.mdp.curriculums_stand_up import *  # noqa: F401,F403
+from agile.rl_env.mdp.rewards_height_tracking import *  # noqa: F401,F403
+from agile.rl_env.mdp.terminations_height_tracking import *  # noqa: F401,F403
+from agile.rl_env.mdp.curriculums_height_tracking import *  # noqa: F401,F403
+from agile.rl_env.mdp.motion_tracking import *  # noqa: F401,F403

@@ -1,8 +1,12 @@
+from agile.rl_env.mdp.commands.height_command import SmoothHeightCommand, SmoothHeightCommandCfg, SmoothHeightRangesCfg
 from agile.rl_env.mdp.commands.velocity_command import (UniformNullVelocityCommand, UniformNullVelocityCommandCfg,
                                                         VelocityRangesCfg)
 from agile.rl_env.mdp.commands.velocity_height_command import (UniformVelocityBaseHeightCommand,
                                                                UniformVelocityBaseHeightCommandCfg,
                                                                VelocityHeightRangesCfg)
+from agile.rl_env.mdp.commands.motion_command import MotionCommand, MotionCommandCfg
 
-__all__ = ["UniformNullVelocityCommand", "UniformNullVelocityCommandCfg", "UniformVelocityBaseHeightCommand",
+__all__ = ["SmoothHeightCommand", "SmoothHeightCommandCfg", "SmoothHeightRangesCfg",
+           "UniformNullVelocityCommand", "UniformNullVelocityCommandCfg", "UniformVelocityBaseHeightCommand",
            "UniformVelocityBaseHeightCommandCfg", "VelocityHeightRangesCfg", "VelocityRangesCfg"]
+__all__ += ["MotionCommand", "MotionCommandCfg"]

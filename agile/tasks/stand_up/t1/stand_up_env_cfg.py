@@ -10,12 +10,12 @@ from __future__ import annotations
 
 from agile.assets.booster_t1 import ARM_JOINTS, HEAD_JOINTS, WAIST_JOINTS, t1_robot_cfg
 from agile.rl_env import ManagerBasedRLEnvCfg, mdp
-from agile.rl_env.fallen_states import FallenStateDatasetCfg
-from agile.rl_env.managers import CurrTerm, DoneTerm, EventTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg
+from agile.rl_env.managers import CurrTerm, DoneTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg
 from agile.rl_env.managers import UniformNoiseCfg as Unoise
 from agile.sim.terrain import STAND_UP_ROUGH_TERRAIN_CFG
-from agile.tasks.locomotion.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, velocity_events_cfg,
-                                                   velocity_scene_cfg, velocity_sim_cfg)
+from agile.tasks.locomotion.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, velocity_scene_cfg,
+                                                   velocity_sim_cfg)
+from agile.tasks.stand_up.stand_up_common import stand_up_events_cfg
 from agile.utils.config import configclass
 
 STANDING_HEIGHT_M = 0.65
@@ -133,19 +133,11 @@ class TerminationsCfg:
                                           "time_window_s": 10.0, "sensor_name": BASE_HEIGHT_SENSOR})
 
 
-def stand_up_events_cfg():
-    """T1's velocity-task randomisation and disturbances, harder pushes (every 0-10 s, 1 m/s, 0.5 rad/s), and
-    episodes started from the fallen-state dataset (a tenth standing) instead of the default pose."""
-    events = velocity_events_cfg(base_body="Trunk", base_mass_add_kg=(-1.0, 3.0),
-                                 base_com_range_m={"x": (-0.15, 0.15), "y": (-0.05, 0.05), "z": (-0.15, 0.15)},
-                                 extremity_bodies=["left_hand_link", "right_hand_link", *FOOT_BODIES])
-    events.push_robot.interval_range_s = (0.0, 10.0)
-    events.push_robot.params["velocity_range"] = {"x": (-1.0, 1.0), "y": (-1.0, 1.0), "roll": (-0.5, 0.5),
-                                                  "pitch": (-0.5, 0.5), "yaw": (-0.5, 0.5)}
-    events.reset_base = EventTerm(func=mdp.reset_from_fallen_dataset, mode="reset",
-                                  params={"standing_ratio": 0.1, "dataset": FallenStateDatasetCfg()})
-    events.reset_robot_joints = None  # the dataset's states hold the joints; standing envs keep the default pose
-    return events
+def t1_stand_up_events_cfg():
+    """T1's events: a tenth of the episodes start standing."""
+    return stand_up_events_cfg(base_body="Trunk", base_mass_add_kg=(-1.0, 3.0),
+                               base_com_range_m={"x": (-0.15, 0.15), "y": (-0.05, 0.05), "z": (-0.15, 0.15)},
+                               extremity_bodies=["left_hand_link", "right_hand_link", *FOOT_BODIES], standing_ratio=0.1)
 
 
 def _weight_ramp(reward_name: str, start_step: int, num_steps: int, terminal_weight: float,
@@ -185,5 +177,5 @@ class T1StandUpEnvCfg(ManagerBasedRLEnvCfg):
     observations = ObservationsCfg()
     rewards = RewardsCfg()
     terminations = TerminationsCfg()
-    events = stand_up_events_cfg()
+    events = t1_stand_up_events_cfg()
     curriculum = CurriculumCfg()
