@@ -1,0 +1,1 @@
+"""Reference motions shipped with agile (scripts/make_demo_motions.py writes them)."""

@@ -1,0 +1,1 @@
+"""Motion tracking tasks: a policy follows a reference motion (BeyondMimic)."""

@@ -1,0 +1,21 @@
+"""AGILE `G1FlatPPORunnerCfg` (BeyondMimic's PPO settings): 30k iterations, actor and critic [512, 256, 128].
+
+AGILE's runner also normalises rewards (0.999) and adds an L2C2 smoothness loss (1.0 / 0.1); rsl-rl-lib 5.5.1 has
+neither, and agile does not add them: this runner trains without (docs/motion_tracking.md)."""
+
+from agile.rl_env.rsl_rl import DistributionCfg, MlpModelCfg, PpoAlgorithmCfg, PpoRunnerCfg
+
+
+def g1_motion_tracking_ppo_runner_cfg() -> PpoRunnerCfg:
+    return PpoRunnerCfg(
+        experiment_name="motion_tracking_g1",
+        num_steps_per_env=24,
+        max_iterations=30_000,
+        save_interval=500,
+        actor=MlpModelCfg(hidden_dims=[512, 256, 128], activation="elu", obs_normalization=True,
+                          distribution_cfg=DistributionCfg(init_std=1.0)),
+        critic=MlpModelCfg(hidden_dims=[512, 256, 128], activation="elu", obs_normalization=True),
+        algorithm=PpoAlgorithmCfg(learning_rate=1.0e-3, schedule="adaptive", desired_kl=0.01, gamma=0.99, lam=0.95,
+                                  entropy_coef=0.005, num_learning_epochs=5, num_mini_batches=4, clip_param=0.2,
+                                  value_loss_coef=1.0, max_grad_norm=1.0),
+    )
