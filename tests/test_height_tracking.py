@@ -1,0 +1,149 @@
+"""HeightTracking-G1-v0 built on CPU (3 envs, 2 terrain rows): its pre-learn step (a tiny fallen-state dataset),
+steps, resets and one PPO iteration; the height command's range, shares and settle time; the command-following
+lift's force for a known height error and vertical velocity, push-down on and off, the weight-fraction limit."""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import io
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+
+import agile.tasks
+from agile.rl_env.fallen_states import FallenStateDatasetCfg
+
+TASK = "HeightTracking-G1-v0"
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def env_and_agent(tmp_path_factory):
+    sys.path.insert(0, str(ROOT / "scripts"))
+    from utils import cli
+
+    env_cfg, agent_cfg = agile.tasks.load_cfgs(TASK)
+    env_cfg.num_envs = 3
+    env_cfg.scene.terrain = dataclasses.replace(env_cfg.scene.terrain, num_rows=2, num_cols=3)
+    env_cfg.events.reset_base.params["dataset"] = FallenStateDatasetCfg(
+        cache_dir=str(tmp_path_factory.mktemp("fallen_cache")))
+    with contextlib.redirect_stdout(io.StringIO()):
+        env = cli.make_env(TASK, env_cfg, "cpu")  # runs the registration's pre-learn hook
+    return env, agent_cfg
+
+
+def test_pre_learn_step_reset_and_one_ppo_iteration(env_and_agent, tmp_path):
+    from rsl_rl.runners import OnPolicyRunner
+
+    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+
+    env, agent_cfg = env_and_agent
+    assert len(env.event_manager.get_term("reset_base").states) > 0  # the dataset was collected and handed over
+    obs = env.reset()[0]
+    assert obs["policy"]["height_command"].shape == (3, 5) and obs["critic"]["height_command"].shape == (3, 5)
+    for _ in range(3):
+        env.step(torch.zeros(3, env.action_manager.total_action_dim))
+    agent_cfg.num_steps_per_env = 4
+    agent_cfg.algorithm.num_mini_batches = 2
+    runner = OnPolicyRunner(RslRlVecEnvWrapper(env), to_rsl_rl_dict(agent_cfg), log_dir=str(tmp_path), device="cpu")
+    runner.learn(num_learning_iterations=1)
+    assert (tmp_path / "model_0.pt").is_file()
+    assert not {name: int(n) for name, n in env.reward_manager.nonfinite_count.items() if int(n)}
+
+
+def test_command_range_shares_and_settle_time(env_and_agent):
+    env, _ = env_and_agent
+    command = env.command_manager.get_term("height")
+    low_m, high_m = command.cfg.ranges.height_m
+    assert (low_m, high_m) == pytest.approx((-0.5, 0.92))
+    everyone = torch.ones(3, dtype=torch.bool)
+    torch.manual_seed(0)
+    draws = []
+    for _ in range(2000):
+        command._resample(everyone)
+        draws.append(command.drawn_height_m.clone())
+    draws = torch.cat(draws)
+    assert draws.min().item() >= low_m - 1e-6 and draws.max().item() <= high_m + 1e-6
+    # 30% stand (the top), 20% lie (the bottom), the rest uniform in between: 6000 draws, ±3 standard errors
+    assert (draws == high_m).float().mean().item() == pytest.approx(0.3, abs=0.02)
+    assert (draws == low_m).float().mean().item() == pytest.approx(0.2, abs=0.02)
+    # instant jumps: the command reaches the draw at the next update
+    command._update_command()
+    assert torch.allclose(command.target_height_m, command.drawn_height_m, atol=1e-6)
+    # settle: 2 s = 100 env steps after a resampling before tracking counts
+    assert command.settle_steps == 100
+    command.steps_since_resample.fill_(100)
+    assert not command.settled.any()
+    command.steps_since_resample.fill_(101)
+    assert command.settled.all()
+    # relaxation intensity: 0 at and above 0, 1 at the bottom
+    command.target_height_m[:] = torch.tensor([0.3, -0.25, -0.5])
+    assert command.relaxation_intensity.tolist() == pytest.approx([0.0, 0.5, 1.0])
+    env.reset()
+
+
+def test_command_config_errors_name_the_field(env_and_agent):
+    env, _ = env_and_agent
+    from agile.rl_env import mdp
+
+    for bad, field in ((dict(standing_ratio=0.7, flat_ratio=0.4), "standing_ratio \\+ flat_ratio"),
+                       (dict(ramp_speed_range_mps=(0.0, 1.0)), "ramp_speed_range_mps"),
+                       (dict(ranges=mdp.SmoothHeightRangesCfg(height_m=(1.0, 0.0))), "ranges.height_m"),
+                       (dict(body_name="no_such_body"), "no_such_body")):
+        with pytest.raises(ValueError, match=field):
+            mdp.SmoothHeightCommand(mdp.SmoothHeightCommandCfg(**bad), env)
+
+
+def _lift_force_n(env, target_m: list[float], vel_z_mps: float) -> tuple[torch.Tensor, torch.Tensor]:
+    """The lift's vertical force on the torso for the given commands, the robot at its default pose moving up at
+    vel_z_mps; and the tracked point's measured height."""
+    robot, lift = env.scene["robot"], env.action_manager.get_term("lift")
+    command = env.command_manager.get_term("height")
+    everyone = torch.ones(env.num_envs, dtype=torch.bool)
+    velocity = torch.zeros(env.num_envs, 6)
+    velocity[:, 2] = vel_z_mps
+    robot.write_root_state(robot.root_pose_w.clone(), velocity, everyone)
+    env.sim.forward()
+    env.scene.update()
+    command.target_height_m[:] = torch.tensor(target_m)
+    torso = robot.find_bodies("torso_link")[0][0]
+    robot.body_wrench_w[:, torso] = 0.0
+    lift.apply_actions()
+    lift.apply_wrench()
+    return robot.body_wrench_w[:, torso, 2].clone(), command.measured_height_m.clone()
+
+
+def test_command_following_lift(env_and_agent):
+    env, _ = env_and_agent
+    env.reset()
+    robot, lift = env.scene["robot"], env.action_manager.get_term("lift")
+    lift.scale_forces(1.0)
+    # the masses as built (before the startup randomisation), as AGILE's default_mass
+    weight_n = robot.default_body_mass.sum(dim=1).mean().item() * 9.81
+    assert lift.force_limit_n == pytest.approx(0.9 * weight_n, rel=1e-5)  # G1 about 33 kg: about 290 N
+    # small errors stay below the limit: F = 5000·(target - h) - 2500·v_z
+    force, height = _lift_force_n(env, [0.0, 0.0, 0.0], 0.0)
+    targets = (height + torch.tensor([0.02, -0.02, 0.01])).tolist()
+    force, height = _lift_force_n(env, targets, 0.01)
+    expected = 5000.0 * (torch.tensor(targets) - height) - 2500.0 * 0.01
+    assert torch.allclose(force, expected, atol=0.5), (force, expected)
+    # far below / far above the target: clamped to ±0.9 of the weight (push-down allowed)
+    force, height = _lift_force_n(env, [1.5, 0.05, 1.5], 0.0)
+    assert force.tolist() == pytest.approx([0.9 * weight_n, -0.9 * weight_n, 0.9 * weight_n], rel=1e-4)
+    # a negative command (lie relaxed): no force at all
+    force, _ = _lift_force_n(env, [-0.3, -0.3, -0.3], 0.0)
+    assert not force.any()
+    # without push-down, the force is clamped at 0 from below
+    lift.kernel_inputs[14] = 0  # allow_push_down, as LiftAction built it from its config
+    force, _ = _lift_force_n(env, [0.05, 0.05, 0.05], 0.0)
+    assert lift.cfg.allow_push_down and not force.any()
+    lift.kernel_inputs[14] = 1
+    # the curriculum's scale scales the gains and the limit
+    lift.scale_forces(0.5)
+    force, height = _lift_force_n(env, [0.05, 0.05, 0.05], 0.0)
+    assert force.tolist() == pytest.approx([-0.45 * weight_n] * 3, rel=1e-4)
+    lift.scale_forces(1.0)
+    env.reset()
