@@ -14,7 +14,7 @@ from pathlib import Path
 import newton
 import numpy as np
 from scipy.interpolate import CubicSpline
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation, RotationSpline
 
 from agile.motion.motion_file import MotionData
 from agile.sim import ArticulationCfg
@@ -77,14 +77,14 @@ def remap_joints(motion: RootAndJoints, robot_joint_names: list[str]) -> RootAnd
 
 
 def resample(motion: RootAndJoints, fps: float) -> RootAndJoints:
-    """The motion at `fps` over the same duration: cubic splines through positions and angles, spherical linear
-    interpolation of the root orientation (the last frame is the last one the duration holds)."""
+    """The motion at `fps` over the same duration: cubic splines through positions, angles and the root
+    orientation (smooth velocities; the last frame is the last one the duration holds)."""
     times = np.arange(motion.joint_pos.shape[0]) / motion.fps
     count = int(np.floor(times[-1] * fps + 1e-9)) + 1
     new_times = np.arange(count) / fps
     root_pos = CubicSpline(times, motion.root_pos_w, axis=0)(new_times)
     joint_pos = CubicSpline(times, motion.joint_pos, axis=0)(new_times)
-    root_quat = Slerp(times, Rotation.from_quat(motion.root_quat_w))(new_times).as_quat()
+    root_quat = RotationSpline(times, Rotation.from_quat(motion.root_quat_w))(new_times).as_quat()
     return RootAndJoints(float(fps), motion.joint_names, root_pos, root_quat, joint_pos)
 
 
