@@ -15,6 +15,8 @@ from agile.rl_env.managers import (ActionManager, CommandManager, CurriculumMana
 from agile.sim import SceneCfg, SimCfg, Simulation
 from agile.utils.config import ConfigError, apply_overrides, configclass, load_entry_point
 
+CURRICULUM_STATE_PREFIX = "curriculum/"
+"""Keys of `training_state()` that hold a curriculum term's state."""
 
 @configclass
 class ManagerBasedRLEnvCfg:
@@ -262,10 +264,13 @@ class ManagerBasedRLEnv(gym.Env):
 
     def training_state(self) -> dict[str, torch.Tensor]:
         """The env state a resumed training needs (CPU tensors): the step counter, which drives the reward-weight
-        ramps, and each env's terrain level. Observation histories and episodes start afresh."""
+        ramps, each env's terrain level, and the adaptive curricula's state ("curriculum/<term>.<attr>", e.g. the
+        stand-up lift's strength). Observation histories and episodes start afresh."""
         state = {"common_step_counter": self.common_step_counter.detach().cpu().clone()}
         if self.sim.terrain is not None:
             state["terrain_levels"] = self.sim.terrain_levels.detach().cpu().clone()
+        for key, value in self.curriculum_manager.training_state().items():
+            state[f"{CURRICULUM_STATE_PREFIX}{key}"] = value
         return state
 
     def load_training_state(self, state: dict[str, torch.Tensor]) -> None:
@@ -277,6 +282,11 @@ class ManagerBasedRLEnv(gym.Env):
                 raise ValueError(f"the checkpoint holds terrain levels of {levels.shape[0]} envs, this env has "
                                  f"{self.num_envs}")
             self.sim.set_terrain_levels(levels.to(self.device))
+        curriculum = {key[len(CURRICULUM_STATE_PREFIX):]: value for key, value in state.items()
+                      if key.startswith(CURRICULUM_STATE_PREFIX)}
+        missing = self.curriculum_manager.load_training_state(curriculum)
+        if missing:
+            print(f"[agile] the checkpoint holds no state for {missing}: those curriculum terms start afresh")
         self.reset()
 
     # -- resets ----------------------------------------------------------------------------------

@@ -25,3 +25,27 @@ class CurriculumManager:
             if value is not None:
                 self.state[name] = value
         return {f"Curriculum/{name}": value for name, value in self.state.items()}
+
+    def training_state(self) -> dict[str, torch.Tensor]:
+        """{"<term>.<attr>": CPU copy} of every term's `training_state_attrs` (adaptive curricula)."""
+        return {f"{name}.{attr}": getattr(func, attr).detach().cpu().clone()
+                for name, func in self.funcs.items() for attr in getattr(func, "training_state_attrs", ())}
+
+    def load_training_state(self, state: dict[str, torch.Tensor]) -> list[str]:
+        """Copy `training_state()` entries back into the terms, in place (others hold references to them, e.g.
+        the push event to pushing_curriculum's scale). Returns the entries this env expected and the state lacked
+        (a checkpoint from before a term existed: that term starts afresh); entries for terms this env does not
+        have are an error."""
+        expected = self.training_state()
+        unknown = sorted(set(state) - set(expected))
+        if unknown:
+            raise ValueError(f"the checkpoint holds curriculum state {unknown} that this env's curriculum terms do "
+                             f"not have; terms with state: {sorted(expected)}")
+        for key, value in state.items():
+            name, attr = key.split(".", 1)
+            target = getattr(self.funcs[name], attr)
+            if value.shape != target.shape:
+                raise ValueError(f"curriculum state '{key}': checkpoint shape {tuple(value.shape)}, this env "
+                                 f"{tuple(target.shape)} (a different num_envs?)")
+            target.copy_(value.to(target.device))
+        return sorted(set(expected) - set(state))

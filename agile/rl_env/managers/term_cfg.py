@@ -109,7 +109,12 @@ class CurrTerm:
 
 
 class ManagerTermBase:
-    """Base of stateful terms (a class in `func`): built once with (cfg, env), then called like a function."""
+    """Base of stateful terms (a class in `func`): built once with (cfg, env), then called like a function.
+
+    `training_state_attrs` names the tensor attributes that a resumed training must get back (an adaptive
+    curriculum's running average and scale): they are saved with each checkpoint and restored in place."""
+
+    training_state_attrs: tuple[str, ...] = ()
 
     def __init__(self, cfg, env):
         self.cfg = cfg

@@ -139,6 +139,8 @@ class pushing_curriculum(ManagerTermBase):  # noqa: N801 (AGILE's name)
     runs inside a captured step.
     """
 
+    training_state_attrs = ("scale",)  # restored on resume (ManagerTermBase)
+
     AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 
     def __init__(self, cfg, env):

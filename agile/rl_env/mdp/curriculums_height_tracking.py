@@ -23,6 +23,8 @@ class adaptive_force_decay(ManagerTermBase):  # noqa: N801 (AGILE's name)
     A step without ending episodes changes nothing. The scale goes to the action (`scale_forces`) on every call;
     returns it."""
 
+    training_state_attrs = ("error_ema_m", "scale")  # restored on resume (ManagerTermBase)
+
     def __init__(self, cfg, env):
         super().__init__(cfg, env)
         params = cfg.params
@@ -79,6 +81,8 @@ class update_reward_weight_after_curriculum(ManagerTermBase):  # noqa: N801 (AGI
     `prerequisite_curriculum` (what it returned last) first reaches `prerequisite_threshold`, wait `delay_steps`
     env steps, then ramp the reward's weight linearly from its configured value to `terminal_weight` over
     `num_steps` env steps. Returns the weight. The trigger step is a device tensor (-1: not yet)."""
+
+    training_state_attrs = ("trigger_step",)  # restored on resume (ManagerTermBase)
 
     def __init__(self, cfg, env):
         super().__init__(cfg, env)

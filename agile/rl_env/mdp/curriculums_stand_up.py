@@ -28,6 +28,8 @@ class adaptive_lift_curriculum(ManagerTermBase):  # noqa: N801 (AGILE's name)
     The EMA and the scale are device tensors updated with masked math: no host sync.
     """
 
+    training_state_attrs = ("standing_share_ema", "scale")  # restored on resume (ManagerTermBase)
+
     def __init__(self, cfg, env):
         super().__init__(cfg, env)
         params = cfg.params
