@@ -84,16 +84,22 @@ def test_shipped_policy_conditions_still_name_real_fields(task):
     assert env_cfg.scene.terrain is None  # every shipped policy with conditions learned on flat ground
 
 
-def test_shipped_policy_conditions_follow_the_policy_file():
+def test_shipped_policy_conditions_follow_the_policy_file(tmp_path, monkeypatch):
     import agile.tasks
 
-    assert "Velocity-Height-G1-Teacher-v0" in _tasks_with_conditions()
+    conditions = tmp_path / "conditions.yaml"
+    conditions.write_text("Velocity-Height-G1-Teacher-v0:\n  trained_on: flat ground\n"
+                          "  env_overrides: [env.scene.terrain=null]\n")
+    monkeypatch.setattr(agile.tasks, "PRETRAINED_CONDITIONS", conditions)
     # Velocity-Height-G1-v0 runs the policy shipped as Velocity-Height-G1-Teacher-v0, so its conditions too
     assert (agile.tasks.pretrained_policy_conditions("Velocity-Height-G1-v0")
-            == agile.tasks.pretrained_policy_conditions("Velocity-Height-G1-Teacher-v0") != ("", []))
+            == agile.tasks.pretrained_policy_conditions("Velocity-Height-G1-Teacher-v0")
+            == ("flat ground", ["env.scene.terrain=null"]))
+    assert agile.tasks.pretrained_policy_conditions("Velocity-T1-v0") == ("", [])
 
 
-@pytest.mark.parametrize("task", ["Velocity-T1-v0", "Velocity-G1-History-v0"])
+@pytest.mark.parametrize("task", ["Velocity-T1-v0", "Velocity-G1-History-v0", "Velocity-Height-G1-Teacher-v0",
+                                  "Velocity-Height-G1-Student-Recurrent-v0", "Velocity-Height-G1-Student-History-v0"])
 def test_a_policy_trained_on_the_registered_task_has_no_conditions(task):
     import agile.tasks
 
@@ -113,7 +119,8 @@ def test_rsl_rl_runner_options_reach_the_runner_cfg():
     assert train_cfg["actor"]["distribution_cfg"]["init_std"] == 0.3  # T1 starts with 0.3 rad of action noise
 
 
-@pytest.mark.parametrize("task", ["Velocity-T1-v0", "Velocity-G1-History-v0"])
+@pytest.mark.parametrize("task", ["Velocity-T1-v0", "Velocity-G1-History-v0", "Velocity-Height-G1-Teacher-v0",
+                                  "Velocity-Height-G1-Student-Recurrent-v0", "Velocity-Height-G1-Student-History-v0"])
 def test_velocity_tasks_start_on_agile_terrain_rows(task):
     import agile.tasks
 

@@ -62,7 +62,8 @@ def pretrained_policy_conditions(task: str) -> tuple[str, list[str]]:
     env) from agile/data/policy/conditions.yaml, keyed by the policy file's name (two IDs of one task share
     its entry); ("", []) when it was trained on the task as registered."""
     with open(PRETRAINED_CONDITIONS) as f:
-        spec = yaml.safe_load(f).get(task_spec(task).kwargs.get("shipped_policy", task))
+        spec = (yaml.safe_load(f) or {}).get(  # a file of comments only: no policy has conditions
+            task_spec(task).kwargs.get("shipped_policy", task))
     if spec is None:
         return "", []
     return spec["trained_on"], list(spec["env_overrides"])
