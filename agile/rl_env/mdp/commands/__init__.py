@@ -10,3 +10,6 @@ __all__ = ["SmoothHeightCommand", "SmoothHeightCommandCfg", "SmoothHeightRangesC
            "UniformNullVelocityCommand", "UniformNullVelocityCommandCfg", "UniformVelocityBaseHeightCommand",
            "UniformVelocityBaseHeightCommandCfg", "VelocityHeightRangesCfg", "VelocityRangesCfg"]
 __all__ += ["MotionCommand", "MotionCommandCfg"]
+from agile.rl_env.mdp.commands.tracking_command import TrackingCommand, TrackingCommandCfg
+
+__all__ += ["TrackingCommand", "TrackingCommandCfg"]
