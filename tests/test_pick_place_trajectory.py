@@ -109,3 +109,20 @@ def test_tracking_command_refuses_joints_the_robot_lacks(trajectory_file, tmp_pa
     path.write_text(HAND_WRITTEN.replace("joint_names: [b, a]", "joint_names: [b, wrist]"))
     with pytest.raises(ValueError, match=r"trajectory joints \['wrist'\] are not in robot 'robot'"):
         TrackingCommand(TrackingCommandCfg(trajectory_files=[str(path)]), command_env())
+
+
+def test_shipped_trajectories_are_what_the_script_makes(tmp_path):
+    """They load, start with the cube where the scene puts it, and are reproduced by their script."""
+    import make_pick_place_trajectories
+
+    from agile.assets.tabletop import CUBE_START_POS_M
+    from agile.motion.trajectory_file import SHIPPED_TRAJECTORIES_DIR
+
+    make_pick_place_trajectories.main(["--out", str(tmp_path)])
+    shipped = sorted(p.name for p in SHIPPED_TRAJECTORIES_DIR.glob("*.yaml"))
+    assert shipped == sorted(p.name for p in tmp_path.glob("*.yaml")) and len(shipped) == 3
+    for name in shipped:
+        assert (SHIPPED_TRAJECTORIES_DIR / name).read_text() == (tmp_path / name).read_text(), name
+        trajectory = load_trajectory(name.removesuffix(".yaml"))
+        np.testing.assert_allclose(trajectory.object_pos_m[0], CUBE_START_POS_M)
+        assert [PHASES[p] for p in sorted(set(trajectory.phase))] == list(PHASES)

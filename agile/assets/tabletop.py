@@ -1,0 +1,28 @@
+"""A table in front of the robot and a cube on it: the props of pick-and-place (AGILE: a table USD and a DexCube
+or YCB soup can). Positions are in the env frame (the robot's root starts above the origin, facing +x)."""
+
+from __future__ import annotations
+
+from agile.sim.scene_cfg import BoxShapeCfg, RigidObjectCfg
+
+TABLE_TOP_HEIGHT_M = 0.75
+TABLE_SIZE_M = (0.5, 1.0, TABLE_TOP_HEIGHT_M)
+"""Depth (x), width (y), height (z): a solid block from the ground to the top."""
+TABLE_FRONT_EDGE_X_M = 0.22
+"""The table's near edge, clear of the robot's knees and hands at its default pose."""
+CUBE_EDGE_M = 0.06
+"""AGILE's DexCube."""
+CUBE_MASS_KG = 0.1
+CUBE_START_POS_M = (0.33, -0.12, TABLE_TOP_HEIGHT_M + CUBE_EDGE_M / 2)
+"""Where every shipped trajectory picks the cube up: in front of the right hand, resting on the table."""
+
+
+def table_cfg() -> RigidObjectCfg:
+    x_m = TABLE_FRONT_EDGE_X_M + TABLE_SIZE_M[0] / 2
+    return RigidObjectCfg(shape=BoxShapeCfg(size_m=TABLE_SIZE_M), body_type="fixed", friction=0.8,
+                          init_pos_m=(x_m, 0.0, TABLE_SIZE_M[2] / 2))
+
+
+def cube_cfg() -> RigidObjectCfg:
+    return RigidObjectCfg(shape=BoxShapeCfg(size_m=(CUBE_EDGE_M,) * 3), body_type="dynamic", mass_kg=CUBE_MASS_KG,
+                          friction=1.0, init_pos_m=CUBE_START_POS_M)
