@@ -11,6 +11,7 @@ from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 SMOKE_TASKS = ["Velocity-T1-v0", "Velocity-G1-History-v0", "Velocity-G1-Teacher-v0", "Velocity-Height-G1-Teacher-v0",
                "Velocity-Height-G1-History-v0", "Debug-G1-v0", "Debug-T1-v0", "Debug-G1-Object-v0"]
 SMOKE_TASKS += ["MotionTracking-G1-v0"]
+SMOKE_TASKS += ["PickPlace-G1-v0"]
 MULTI_AGENT_SMOKE_TASKS = ["MultiRate-G1-T1-Velocity-v0"]
 DISTILLED = "distilled from a teacher: tests/test_distillation.py builds, steps, trains and exports it"
 SKIPPED_TASKS: dict[str, str] = {  # task ID -> reason
@@ -18,6 +19,7 @@ SKIPPED_TASKS: dict[str, str] = {  # task ID -> reason
     "Velocity-Height-G1-Student-Recurrent-v0": DISTILLED,
     "Velocity-Height-G1-Student-History-v0": DISTILLED,
     "Tracking-Flat-G1-v0": "the same configs as MotionTracking-G1-v0 (AGILE v1.3 renamed it; both IDs registered)",
+    "G1-PickPlace-Tracking-v0": "the same configs as PickPlace-G1-v0 (AGILE v1.3 renamed it; both IDs registered)",
     "StandUp-T1-v0": "needs its pre-learn step: tests/test_stand_up.py collects a tiny dataset, steps and trains it",
     "HeightTracking-G1-v0": "needs its pre-learn step: tests/test_height_tracking.py collects a tiny dataset, steps "
                             "and trains it",

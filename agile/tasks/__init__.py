@@ -14,6 +14,7 @@ from agile.tasks.stand_up import t1 as stand_up_t1  # noqa: F401  (registration 
 from agile.tasks.stand_up import g1 as stand_up_g1  # noqa: F401  (registration side effect)
 from agile.tasks.tracking import g1 as tracking_g1  # noqa: F401  (registration side effect)
 from agile.tasks import multi_agent  # noqa: F401  (registration side effect)
+from agile.tasks.pick_place import g1 as pick_place_g1  # noqa: F401  (registration side effect)
 from agile.utils.config import load_entry_point
 
 

@@ -1,3 +1,4 @@
+from agile.rl_env.mdp.actions.delta_joint_actions import DeltaJointPositionAction, DeltaJointPositionActionCfg
 from agile.rl_env.mdp.actions.frozen_policy_action import FrozenPolicyAction, FrozenPolicyActionCfg
 from agile.rl_env.mdp.actions.harness_action import HarnessAction, HarnessActionCfg
 from agile.rl_env.mdp.actions.joint_actions import (JointPositionAction, JointPositionActionCfg,
@@ -13,4 +14,4 @@ __all__ = ["HarnessAction", "HarnessActionCfg", "JointPositionAction", "JointPos
            "RelativeJointPositionAction", "RelativeJointPositionActionCfg",
            "MirroredJointPositionAction", "MirroredJointPositionActionCfg", "ObjectPoseAction", "ObjectPoseActionCfg",
            "RandomActionCfg", "RandomPositionAction", "TrapezoidalProfile", "TrapezoidalVelocityProfileCfg"]
-__all__ += ["FrozenPolicyAction", "FrozenPolicyActionCfg"]
+__all__ += ["DeltaJointPositionAction", "DeltaJointPositionActionCfg", "FrozenPolicyAction", "FrozenPolicyActionCfg"]

@@ -133,6 +133,11 @@ class TrackingCommand(CommandTerm):
         return self._at_frame(self.ref_in_hand)
 
     @property
+    def released(self) -> torch.Tensor:
+        """(N,) the reference has let the object go (at or after its first frame after the hold)."""
+        return self.time_steps >= self.release_frame[self.trajectory_ids]
+
+    @property
     def steps_since_release(self) -> torch.Tensor:
         """(N,) env steps since the reference let the object go (0 before that)."""
         return (self.time_steps - self.release_frame[self.trajectory_ids]).clamp(min=0)

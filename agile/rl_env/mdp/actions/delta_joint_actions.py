@@ -1,0 +1,81 @@
+"""Delta joint-position action (AGILE `DeltaJointPositionAction`): the action moves the joint targets.
+
+target ← clip(target + action × scale), kept per env between steps, so a zero action holds the targets. At an
+episode start the targets begin where the joints are (after the reset has placed them). The clip is the
+joints' soft position limits narrowed by `joint_limits`. `steady_joint_names` are other joints of the robot that
+no term drives here (the left arm under a right-handed task): they are held at their default positions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import field
+
+import torch
+
+from agile.rl_env.managers import ActionTerm
+from agile.sim.names import resolve_values
+from agile.utils.config import configclass
+
+
+class DeltaJointPositionAction(ActionTerm):
+    """Action (N, J): a step of each joint's target [rad / scale]."""
+
+    def __init__(self, cfg: DeltaJointPositionActionCfg, env):
+        super().__init__(cfg, env)
+        self.robot = robot = env.scene[cfg.asset_name]
+        joint_ids, self.joint_names = robot.find_joints(cfg.joint_names, preserve_order=True)
+        self.joint_ids = torch.tensor(joint_ids, dtype=torch.long, device=env.device)
+        steady_ids = robot.find_joints(cfg.steady_joint_names)[0] if cfg.steady_joint_names else []
+        overlap = sorted(set(steady_ids) & set(joint_ids))
+        if overlap:
+            raise ValueError(f"steady_joint_names: joints {[robot.joint_names[i] for i in overlap]} are also driven "
+                             f"by joint_names; a joint is either driven or held")
+        self.steady_ids = torch.tensor(steady_ids, dtype=torch.long, device=env.device)
+        n, dim = env.num_envs, len(joint_ids)
+        self.scale = torch.full((dim,), float(cfg.scale), device=env.device)
+        soft = robot.soft_joint_pos_limits[:, self.joint_ids]
+        self.low, self.high = soft[..., 0].clone(), soft[..., 1].clone()
+        for i, low in resolve_values({k: v[0] for k, v in cfg.joint_limits.items()}, self.joint_names).items():
+            self.low[:, i] = torch.clamp(self.low[:, i], min=low)
+        for i, high in resolve_values({k: v[1] for k, v in cfg.joint_limits.items()}, self.joint_names).items():
+            self.high[:, i] = torch.clamp(self.high[:, i], max=high)
+        self.raw_actions = torch.zeros(n, dim, device=env.device)
+        self.processed_actions = robot.default_joint_pos[:, self.joint_ids].clone()
+        """(N, J) the joint targets [rad]."""
+        self.start_from_joints = torch.ones(n, dtype=torch.bool, device=env.device)
+        """(N,) the next step's targets start from the joints' positions (set at an episode start)."""
+
+    @property
+    def action_dim(self) -> int:
+        return len(self.joint_ids)
+
+    def process_actions(self, actions: torch.Tensor) -> None:
+        self.raw_actions.copy_(actions)
+        current = self.robot.joint_pos[:, self.joint_ids]
+        targets = torch.where(self.start_from_joints.unsqueeze(-1), current, self.processed_actions)
+        self.processed_actions.copy_(torch.maximum(torch.minimum(targets + actions * self.scale, self.high),
+                                                   self.low))
+        self.start_from_joints.zero_()
+
+    def apply_actions(self) -> None:
+        self.robot.joint_pos_target[:, self.joint_ids] = self.processed_actions
+        if len(self.steady_ids):
+            self.robot.joint_pos_target[:, self.steady_ids] = self.robot.default_joint_pos[:, self.steady_ids]
+
+    def reset(self, env_mask: torch.Tensor) -> None:
+        self.raw_actions.masked_fill_(env_mask.unsqueeze(-1), 0.0)
+        self.start_from_joints |= env_mask
+
+
+@configclass
+class DeltaJointPositionActionCfg:
+    class_type: type = DeltaJointPositionAction
+    asset_name: str = "robot"
+    joint_names: list[str] = field(default_factory=list)
+    """The driven joints (regexes, in this order)."""
+    scale: float = 0.05
+    """[rad] per unit of action per env step (AGILE: 0.05)."""
+    joint_limits: dict[str, tuple[float, float]] = field(default_factory=dict)
+    """{joint regex: (low, high) [rad]} narrowing the soft position limits (AGILE: the waist's)."""
+    steady_joint_names: list[str] | None = None
+    """Joints held at their default positions (regexes); None: none."""

@@ -1,0 +1,7 @@
+"""PickPlace-G1-v0 (AGILE FEB26: G1-PickPlace-Tracking-v0; both IDs registered)."""
+
+from agile.tasks.registration import register_task
+
+for task_id in ("PickPlace-G1-v0", "G1-PickPlace-Tracking-v0"):
+    register_task(task_id, f"{__name__}.pick_place_env_cfg:pick_place_env_cfg",
+                  f"{__name__}.agents.rsl_rl_ppo_cfg:g1_pick_place_ppo_runner_cfg")
