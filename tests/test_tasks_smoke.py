@@ -11,7 +11,7 @@ from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 SMOKE_TASKS = ["Velocity-T1-v0", "Velocity-G1-History-v0", "Velocity-G1-Teacher-v0", "Velocity-Height-G1-Teacher-v0",
                "Velocity-Height-G1-History-v0", "Debug-G1-v0", "Debug-T1-v0", "Debug-G1-Object-v0"]
 SMOKE_TASKS += ["MotionTracking-G1-v0"]
-SMOKE_TASKS += ["PickPlace-G1-v0"]
+SMOKE_TASKS += ["PickPlace-G1-v0", "PickPlace-G1-Debug-v0"]
 MULTI_AGENT_SMOKE_TASKS = ["MultiRate-G1-T1-Velocity-v0"]
 DISTILLED = "distilled from a teacher: tests/test_distillation.py builds, steps, trains and exports it"
 SKIPPED_TASKS: dict[str, str] = {  # task ID -> reason

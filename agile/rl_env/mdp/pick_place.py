@@ -82,11 +82,17 @@ def hand_object_distance_tracking_exp(env, command_name: str, std: float, releas
     """exp(-|palm - object|² / std²) while the reference holds the object (grasp and carry), fading linearly to 0
     over `release_decay_steps` env steps after it lets go; 0 before the grasp."""
     reference = _reference(env, command_name)
-    palm_pos, _ = palm_pose_w(env, palm_cfg, offset_m)
-    distance_sq = torch.sum(torch.square(env.scene[object_cfg.name].root_pos_w - palm_pos), dim=-1)
     fade = (1.0 - reference.steps_since_release / release_decay_steps).clamp(min=0.0)
     weight = torch.where(reference.in_hand, 1.0, torch.where(reference.released, fade, 0.0))
-    return weight * torch.exp(-distance_sq / std**2)
+    return weight * palm_object_distance_exp(env, std, palm_cfg, offset_m, object_cfg)
+
+
+def palm_object_distance_exp(env, std_m: float, palm_cfg: SceneEntityCfg, offset_m: tuple[float, float, float],
+                             object_cfg: SceneEntityCfg = OBJECT) -> torch.Tensor:
+    """exp(-|palm - object|² / std²): the palm reaching the object, whatever the reference (the debug task)."""
+    palm_pos, _ = palm_pose_w(env, palm_cfg, offset_m)
+    distance_sq = torch.sum(torch.square(env.scene[object_cfg.name].root_pos_w - palm_pos), dim=-1)
+    return torch.exp(-distance_sq / std_m**2)
 
 
 def static_at_goal_exp(env, command_name: str, progress_threshold: float, joint_vel_std: float,
