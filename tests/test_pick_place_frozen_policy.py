@@ -151,3 +151,17 @@ def test_bad_command_ranges_are_named():
         FrozenPolicyAction(FrozenPolicyActionCfg(command_ranges={**{k: v for k, v in RANGES.items()
                                                                     if k != "base_height_m"}, "height": (0.6, 0.7)}),
                            hands_robot_env())
+
+
+def test_the_frozen_policy_file_is_the_shipped_teacher():
+    """The TorchScript export frozen into pick-and-place holds the very weights of the shipped Velocity-Height-G1
+    teacher: re-shipping the teacher without re-exporting it (docs/pick_place.md) fails here."""
+    import agile.tasks
+
+    shipped = torch.load(agile.tasks.pretrained_policy("Velocity-Height-G1-Teacher-v0"), weights_only=False,
+                         map_location="cpu")["actor_state_dict"]
+    frozen = [p.detach() for p in torch.jit.load(POLICY, map_location="cpu").parameters()]
+    layers = [v for k, v in shipped.items() if k.endswith(("weight", "bias")) and "normalizer" not in k]
+    assert len(frozen) == len(layers) > 0
+    for weights in layers:
+        assert any(weights.shape == p.shape and torch.equal(weights, p) for p in frozen)

@@ -170,16 +170,32 @@ def test_play_runs_sinusoidal_actions():
     assert code == 0 and "10 steps" in out, out
 
 
-def test_eval_of_the_shipped_policy_runs_it_in_the_env_it_was_trained_in(tmp_path):
+def test_a_shipped_policy_runs_in_the_env_it_was_trained_in(tmp_path, monkeypatch, capsys):
+    """A shipped policy with conditions in conditions.yaml (none has them now) gets them before the user's
+    overrides, which still win; play, eval and export all take the shipped policy through cli.shipped_policy."""
+    import argparse
+
+    import agile.tasks
+    from utils import cli
+
+    conditions = tmp_path / "conditions.yaml"
+    conditions.write_text("Velocity-Height-G1-Teacher-v0:\n  trained_on: flat ground\n"
+                          "  env_overrides: [env.scene.terrain=null, env.curriculum.terrain_levels=null]\n")
+    monkeypatch.setattr(agile.tasks, "PRETRAINED_CONDITIONS", conditions)
+    args = argparse.Namespace(task="Velocity-Height-G1-v0", overrides=["env.num_envs=3"])
+    assert cli.shipped_policy(args).endswith("Velocity-Height-G1-Teacher-v0.pt")
+    assert args.overrides == ["env.scene.terrain=null", "env.curriculum.terrain_levels=null", "env.num_envs=3"]
+    assert "shipped policy: trained on flat ground" in capsys.readouterr().out
+    args = argparse.Namespace(task="Velocity-G1-History-v0", overrides=[])
+    assert cli.shipped_policy(args).endswith("Velocity-G1-History-v0.pt") and args.overrides == []
+
+
+def test_eval_of_a_shipped_policy_trained_on_the_registered_task(tmp_path):
     out_file = tmp_path / "eval.json"
     code, out = run("scripts/eval.py", "--task", "Velocity-Height-G1-Teacher-v0", "--num_envs", "2", "--device", "cpu",
                     "--episode_length_s", "0.2", "--out", str(out_file))
-    assert code == 0 and "shipped policy: trained on flat ground" in out, out
-    assert json.loads(out_file.read_text())["checkpoint"].endswith("Velocity-Height-G1-Teacher-v0.pt")
-    # G1's velocity policy learned on the task as registered (its rough terrain): nothing to apply
-    code, out = run("scripts/eval.py", "--task", "Velocity-G1-History-v0", "--num_envs", "2", "--device", "cpu",
-                    "--episode_length_s", "0.2", "--out", str(out_file))
     assert code == 0 and "shipped policy: trained on" not in out, out
+    assert json.loads(out_file.read_text())["checkpoint"].endswith("Velocity-Height-G1-Teacher-v0.pt")
 
 
 def test_benchmark_runs_on_cpu(tmp_path):
