@@ -12,8 +12,9 @@ from agile.rl_env.managers.term_cfg import ObsGroup, ObsTerm
 from agile.utils.config import ConfigError
 
 
-class _TermHistory:
-    """The last H values of one term, oldest first; a reset env's history is refilled with its next value."""
+class TermHistory:
+    """The last H values of one term, oldest first; a reset env's history is refilled with its next value. Also
+    what the frozen-policy action keeps for a history policy (the same rule it was trained with)."""
 
     def __init__(self, length: int, num_envs: int, dim: int, device):
         self.buffer = torch.zeros(num_envs, length, dim, device=device)
@@ -47,7 +48,7 @@ class ObservationManager:
             f.name: getattr(cfg, f.name) for f in dataclasses.fields(cfg) if isinstance(getattr(cfg, f.name), ObsGroup)}
         self.term_cfgs: dict[str, dict[str, ObsTerm]] = {}
         self.funcs: dict[str, dict] = {}
-        self.histories: dict[str, dict[str, _TermHistory]] = {}
+        self.histories: dict[str, dict[str, TermHistory]] = {}
         self.term_dims: dict[str, dict[str, int]] = {}
         for group_name, group in self.group_cfgs.items():
             terms = collect_terms(group, ObsTerm)
@@ -64,7 +65,7 @@ class ObservationManager:
                     raise ConfigError(f"task '{env.task_name}': {where}.history_length must be >= 0 (0: no history), "
                                       f"got {length}")
                 if length > 0:
-                    self.histories[group_name][name] = _TermHistory(length, env.num_envs, dim, env.device)
+                    self.histories[group_name][name] = TermHistory(length, env.num_envs, dim, env.device)
                 self.term_dims[group_name][name] = dim * max(length, 1)
 
     @property

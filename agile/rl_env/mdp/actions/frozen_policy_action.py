@@ -18,7 +18,7 @@ from pathlib import Path
 
 import torch
 
-from agile.rl_env.managers import ActionTerm
+from agile.rl_env.managers import ActionTerm, TermHistory
 from agile.utils.config import configclass
 
 DATA_DIR = Path(__file__).resolve().parents[3] / "data" / "frozen_policies"
@@ -36,25 +36,6 @@ def shipped_frozen_policy(task: str = DEFAULT_FROZEN_POLICY) -> tuple[str, str]:
         shipped = sorted(p.name for p in DATA_DIR.iterdir() if p.is_dir()) if DATA_DIR.is_dir() else []
         raise FileNotFoundError(f"no frozen policy '{task}' under {DATA_DIR}. Shipped: {shipped}")
     return str(folder / "policy.pt"), str(folder / "io_descriptor.yaml")
-
-
-class TermHistory:
-    """The last `length` values of one observation term per env, oldest first; a reset env is refilled with
-    its next value (as the ObservationManager does for the policy the frozen one was trained with)."""
-
-    def __init__(self, length: int, num_envs: int, dim: int, device):
-        self.buffer = torch.zeros(num_envs, length, dim, device=device)
-        self.needs_fill = torch.ones(num_envs, dtype=torch.bool, device=device)
-
-    def push(self, value: torch.Tensor) -> torch.Tensor:
-        rolled = torch.cat((self.buffer[:, 1:], value.unsqueeze(1)), dim=1)
-        filled = value.unsqueeze(1).expand_as(self.buffer)
-        self.buffer.copy_(torch.where(self.needs_fill[:, None, None], filled, rolled))
-        self.needs_fill.zero_()
-        return self.buffer.flatten(1)
-
-    def reset(self, env_mask: torch.Tensor) -> None:
-        self.needs_fill |= env_mask
 
 
 def _read_descriptor(path: str) -> dict:
