@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from agile.utils.files import resolve_shipped_file
+
 FORMAT_VERSION = 1
 SHIPPED_MOTIONS_DIR = Path(__file__).resolve().parents[1] / "data" / "motions"
 """The motions shipped with agile (`scripts/make_demo_motions.py` writes them)."""
@@ -87,16 +89,8 @@ def save_motion(path: str | Path, motion: MotionData) -> None:
 
 
 def resolve_motion_file(name: str | Path) -> Path:
-    """`name` as a path, else as a file in the shipped motions (with or without `.npz`)."""
-    path = Path(name)
-    if path.is_file():
-        return path
-    for candidate in (SHIPPED_MOTIONS_DIR / path.name, SHIPPED_MOTIONS_DIR / f"{path.name}.npz"):
-        if candidate.is_file():
-            return candidate
-    shipped = sorted(p.stem for p in SHIPPED_MOTIONS_DIR.glob("*.npz"))
-    raise FileNotFoundError(f"motion file '{name}' not found (neither a path nor a shipped motion). "
-                            f"Shipped motions: {shipped}")
+    """`name` as a path, else as a shipped motion (with or without `.npz`)."""
+    return resolve_shipped_file(name, SHIPPED_MOTIONS_DIR, ".npz", "motion")
 
 
 def load_motion(name: str | Path) -> MotionData:

@@ -29,6 +29,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from agile.utils.files import resolve_shipped_file
+
 FORMAT_VERSION = 1
 PHASES = ("approach", "grasp", "carry", "release", "retract")
 """approach: the hand moves to the resting object; grasp: the fingers close on it; carry: the object moves with
@@ -63,15 +65,7 @@ class Trajectory:
 
 def resolve_trajectory_file(name: str | Path) -> Path:
     """`name` as a path, else as a shipped trajectory (with or without `.yaml`)."""
-    path = Path(name)
-    if path.is_file():
-        return path
-    for candidate in (SHIPPED_TRAJECTORIES_DIR / path.name, SHIPPED_TRAJECTORIES_DIR / f"{path.name}.yaml"):
-        if candidate.is_file():
-            return candidate
-    shipped = sorted(p.stem for p in SHIPPED_TRAJECTORIES_DIR.glob("*.yaml"))
-    raise FileNotFoundError(f"trajectory file '{name}' not found (neither a path nor a shipped trajectory). "
-                            f"Shipped: {shipped}")
+    return resolve_shipped_file(name, SHIPPED_TRAJECTORIES_DIR, ".yaml", "trajectory")
 
 
 def load_trajectory(name: str | Path) -> Trajectory:

@@ -1,4 +1,4 @@
-"""File-system checks shared by the caches."""
+"""File-system helpers: checks shared by the caches, and finding a data file shipped with agile."""
 
 from __future__ import annotations
 
@@ -25,3 +25,17 @@ def warn_if_untrusted_folder(folder: Path, what: str) -> None:
     if reason is not None:
         warnings.warn(f"loading {what} from {folder}, but {reason}: another user could have replaced its files. "
                       f"Point AGILE_CACHE_DIR at a folder of your own.", stacklevel=2)
+
+
+def resolve_shipped_file(name: str | Path, shipped_dir: Path, suffix: str, kind: str) -> Path:
+    """`name` as a path, else as a file of `shipped_dir` (with or without `suffix`, e.g. ".npz"); the error names
+    `kind` (e.g. "motion") and lists the shipped ones."""
+    path = Path(name)
+    if path.is_file():
+        return path
+    for candidate in (shipped_dir / path.name, shipped_dir / f"{path.name}{suffix}"):
+        if candidate.is_file():
+            return candidate
+    shipped = sorted(p.stem for p in shipped_dir.glob(f"*{suffix}"))
+    raise FileNotFoundError(f"{kind} file '{name}' not found (neither a path nor a shipped {kind}). "
+                            f"Shipped {kind}s: {shipped}")
