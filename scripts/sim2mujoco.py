@@ -357,6 +357,10 @@ def main(argv=None) -> None:
     if descriptor.get("version") != IO_DESCRIPTOR_VERSION:
         cli.fail(f"{args.io} is an IO descriptor of version {descriptor.get('version')}, this script reads version "
                  f"{IO_DESCRIPTOR_VERSION}: export the policy again with scripts/export.py")
+    not_joint_targets = [f"{a['name']} ({a['type']})" for a in descriptor["actions"] if "offset" not in a]
+    if not_joint_targets:
+        cli.fail(f"{args.io}: sim2mujoco runs policies whose actions are joint targets (action · scale + offset); "
+                 f"these action terms are not: {not_joint_targets}")
     mjcf = args.mjcf or default_mjcf(descriptor)
     video = MujocoVideo(args.video, mjcf, round(1.0 / descriptor["control_dt_s"])) if args.video else None
     try:

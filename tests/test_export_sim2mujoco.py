@@ -206,3 +206,22 @@ def test_sim2mujoco_renders_a_video_headless(exported, tmp_path):
     # the robot's visual meshes (light grey) fill the middle of the frame; the ground and sky are dark
     centre = frames[-1][100:380, 220:420].astype(int)
     assert (centre.mean(axis=-1) > 120).sum() > 2000
+
+
+def test_each_action_term_describes_itself_and_sim2mujoco_refuses_what_is_not_joint_targets(tmp_path, capsys):
+    """Pick-and-place exports (its delta upper-body action and frozen lower body described by their own terms,
+    not as joint targets), and sim2mujoco names the terms it cannot run instead of failing on a missing key."""
+    env = gym.make("PickPlace-G1-v0", num_envs=2, device="cpu").unwrapped
+    _, agent_cfg = agile.tasks.load_cfgs("PickPlace-G1-v0")
+    actions = {a["name"]: a for a in io_descriptor(env, agent_cfg)["actions"]}
+    delta, frozen = actions["upper_body_joint_pos"], actions["lower_body_joint_pos"]
+    assert delta["type"] == "DeltaJointPositionAction" and "offset" not in delta
+    assert len(delta["joint_names"]) == len(delta["scale_rad_per_step"]) == env.action_manager.get_term(
+        "upper_body_joint_pos").action_dim
+    assert frozen["type"] == "FrozenPolicyAction" and len(frozen["command_low"]) == 4
+    descriptor_file = tmp_path / "io_descriptor.yaml"
+    write_io_descriptor(str(descriptor_file), io_descriptor(env, agent_cfg))
+    with pytest.raises(SystemExit):
+        sim2mujoco.main(["--io", str(descriptor_file), "--policy", str(tmp_path / "policy.pt")])
+    assert "upper_body_joint_pos (DeltaJointPositionAction)" in capsys.readouterr().err
+    env.close()

@@ -65,3 +65,8 @@ def yaw_from_quat(q_xyzw: torch.Tensor) -> torch.Tensor:
 
 def wrap_to_pi(angle: torch.Tensor) -> torch.Tensor:
     return torch.remainder(angle + math.pi, 2.0 * math.pi) - math.pi
+
+
+def rounded_list(values: torch.Tensor, digits: int = 6) -> list[float]:
+    """A tensor's values as a flat list of floats rounded to `digits` (for YAML files such as IO descriptors)."""
+    return [round(float(x), digits) for x in values.flatten().tolist()]

@@ -35,6 +35,12 @@ class ActionTerm:
         (it clips them anyway); None: the term declares no such range."""
         return None
 
+    def io_description(self) -> dict:
+        """This term in the exported IO descriptor: what a deployment needs to turn its slice of the policy output
+        into robot commands. The base gives its type only; joint-target terms add joints, scale, offset, clip
+        (the map sim2mujoco runs: target = action · scale + offset)."""
+        return {"type": type(self).__name__}
+
     def link(self, terms: dict[str, ActionTerm]) -> None:
         """Called once all terms are built, with every term by name: a term that reads another term (a
         mirrored copy of its targets) looks it up here. Raise ValueError for a bad reference."""

@@ -17,6 +17,7 @@ from agile.rl_env.managers import ObsGroup, ObsTerm, SceneEntityCfg
 from agile.rl_env.managers.manager_base import collect_terms
 from agile.rl_env.rsl_rl.runner_cfg import RnnModelCfg, policy_model_cfg, policy_obs_set
 from agile.utils.config import callable_name
+from agile.utils.math import rounded_list
 
 IO_DESCRIPTOR_VERSION = 2  # 2: the "policy" section (model input/output names, recurrent hidden state)
 
@@ -25,8 +26,6 @@ ONNX_OBS_NAME, ONNX_ACTIONS_NAME = "obs", "actions"
 ONNX_HIDDEN_STATE_NAMES = {"lstm": [("h_in", "h_out"), ("c_in", "c_out")], "gru": [("h_in", "h_out")]}
 
 
-def _as_list(t) -> list:
-    return [round(float(x), 6) for x in t.flatten().tolist()]
 
 
 def _joint_names(robot, ids) -> list[str]:
@@ -73,11 +72,7 @@ def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -
         # a term without action dimensions (random upper-body targets) is not part of the policy's output
         if name in training_only_actions or term.action_dim == 0:
             continue
-        entry = {"name": name, "type": type(term).__name__, "joint_names": list(term.joint_names),
-                 "scale": _as_list(term.scale), "offset": _as_list(term.offset[0])}
-        if term.clip is not None:
-            entry["clip"] = [_as_list(term.clip[0]), _as_list(term.clip[1])]
-        actions.append(entry)
+        actions.append({"name": name, **term.io_description()})
     groups = agent_cfg.obs_groups[policy_obs_set(agent_cfg)]
     actuators = {}
     for group in robot.actuator_groups:
@@ -86,7 +81,7 @@ def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -
             if hasattr(group, key):
                 entry[key] = int(getattr(group, key))
         if hasattr(group, "saturation_effort"):
-            entry["saturation_effort"] = _as_list(group.saturation_effort[0])
+            entry["saturation_effort"] = rounded_list(group.saturation_effort[0])
         actuators[group.name] = entry
     commands = {}
     for name, term in env.command_manager.terms.items():
@@ -107,15 +102,15 @@ def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -
         "solver": {"iterations": env.sim.cfg.solver.iterations, "ls_iterations": env.sim.cfg.solver.ls_iterations,
                    "cone": env.sim.cfg.solver.cone, "impratio": env.sim.cfg.solver.impratio},
         "joint_names": list(robot.joint_names),
-        "default_joint_pos": _as_list(robot.default_joint_pos[0]),
+        "default_joint_pos": rounded_list(robot.default_joint_pos[0]),
         "default_root_height_m": float(robot.default_root_pose[0, 2]),
         # the nominal robot: world 0's values may be domain-randomised
-        "stiffness": _as_list(robot.nominal_joint_stiffness),
-        "damping": _as_list(robot.nominal_joint_damping),
-        "effort_limit": _as_list(robot.joint_effort_limit[0]),
-        "velocity_limit": _as_list(robot.joint_vel_limit[0]),
-        "armature": _as_list(robot.nominal_joint_armature),
-        "friction": _as_list(robot.nominal_joint_friction),
+        "stiffness": rounded_list(robot.nominal_joint_stiffness),
+        "damping": rounded_list(robot.nominal_joint_damping),
+        "effort_limit": rounded_list(robot.joint_effort_limit[0]),
+        "velocity_limit": rounded_list(robot.joint_vel_limit[0]),
+        "armature": rounded_list(robot.nominal_joint_armature),
+        "friction": rounded_list(robot.nominal_joint_friction),
         "actuators": actuators,
         "actions": actions,
         "observation_groups": groups,

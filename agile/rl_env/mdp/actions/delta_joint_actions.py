@@ -15,6 +15,7 @@ import torch
 from agile.rl_env.managers import ActionTerm
 from agile.sim.names import resolve_values
 from agile.utils.config import configclass
+from agile.utils.math import rounded_list
 
 
 class DeltaJointPositionAction(ActionTerm):
@@ -56,6 +57,13 @@ class DeltaJointPositionAction(ActionTerm):
         self.processed_actions.copy_(torch.maximum(torch.minimum(targets + actions * self.scale, self.high),
                                                    self.low))
         self.start_from_joints.zero_()
+
+    def io_description(self) -> dict:
+        """Joint targets integrate the action: target += action · scale_rad_per_step, within [low, high] (env 0's
+        limits); an episode starts from the measured joint positions."""
+        return {"type": type(self).__name__, "joint_names": list(self.joint_names),
+                "scale_rad_per_step": rounded_list(self.scale), "low": rounded_list(self.low[0]),
+                "high": rounded_list(self.high[0])}
 
     def apply_actions(self) -> None:
         self.robot.joint_pos_target[:, self.joint_ids] = self.processed_actions

@@ -20,6 +20,7 @@ import torch
 
 from agile.rl_env.managers import ActionTerm, TermHistory
 from agile.utils.config import configclass
+from agile.utils.math import rounded_list
 
 DATA_DIR = Path(__file__).resolve().parents[3] / "data" / "frozen_policies"
 DEFAULT_FROZEN_POLICY = "Velocity-Height-G1-Teacher-v0"
@@ -179,6 +180,13 @@ class FrozenPolicyAction(ActionTerm):
     @property
     def action_dim(self) -> int:
         return 4
+
+    def io_description(self) -> dict:
+        """The action is the frozen lower-body policy's command [vx, vy, wz, height], clipped to these ranges; the
+        frozen policy (its own IO descriptor) turns it into leg targets."""
+        return {"type": type(self).__name__, "command_axes": list(COMMAND_AXES),
+                "command_low": rounded_list(self.command_low), "command_high": rounded_list(self.command_high),
+                "leg_joint_names": list(self.joint_names)}
 
     def process_actions(self, actions: torch.Tensor) -> None:
         self.raw_actions.copy_(actions)

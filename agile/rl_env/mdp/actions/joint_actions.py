@@ -10,6 +10,7 @@ import torch
 from agile.rl_env.managers import ActionTerm
 from agile.sim.names import resolve_values
 from agile.utils.config import configclass
+from agile.utils.math import rounded_list
 
 
 class JointPositionAction(ActionTerm):
@@ -48,6 +49,14 @@ class JointPositionAction(ActionTerm):
         if self.clip is not None:
             processed = torch.maximum(torch.minimum(processed, self.clip[1]), self.clip[0])
         self.processed_actions.copy_(processed)
+
+    def io_description(self) -> dict:
+        """Joint targets = action · scale + offset, clipped: per joint, as lists."""
+        entry = {"type": type(self).__name__, "joint_names": list(self.joint_names),
+                 "scale": rounded_list(self.scale), "offset": rounded_list(self.offset[0])}
+        if self.clip is not None:
+            entry["clip"] = [rounded_list(self.clip[0]), rounded_list(self.clip[1])]
+        return entry
 
     def action_bounds(self) -> tuple[torch.Tensor, torch.Tensor] | None:
         """The actions whose targets (action × scale + offset) reach the clip's ends; beyond them the target
