@@ -17,7 +17,5 @@ def g1_pick_place_ppo_runner_cfg() -> PpoRunnerCfg:
         actor=MlpModelCfg(hidden_dims=[256, 128, 64], activation="elu", obs_normalization=True,
                           distribution_cfg=DistributionCfg(init_std=1.0)),
         critic=MlpModelCfg(hidden_dims=[256, 128, 64], activation="elu", obs_normalization=True),
-        algorithm=PpoAlgorithmCfg(learning_rate=1.0e-3, schedule="adaptive", desired_kl=0.01, gamma=0.99, lam=0.95,
-                                  entropy_coef=0.005, num_learning_epochs=5, num_mini_batches=4, clip_param=0.2,
-                                  value_loss_coef=1.0, max_grad_norm=1.0),
+        algorithm=PpoAlgorithmCfg(),  # its defaults are this runner's AGILE settings (lr 1e-3 adaptive, entropy 0.005)
     )
