@@ -8,6 +8,8 @@ in the world frame).
 
 from __future__ import annotations
 
+import functools
+
 import torch
 
 from agile.rl_env.managers import SceneEntityCfg
@@ -20,14 +22,20 @@ def _motion(env, command_name: str):
     return env.command_manager.get_term(command_name)
 
 
-def _body_columns(command, body_names: list[str] | None) -> list[int] | slice:
-    """Columns of `body_names` among the command's tracked bodies (all when None)."""
+def _body_columns(command, body_names: list[str] | None) -> torch.Tensor | slice:
+    """Columns of `body_names` among the command's tracked bodies (all when None), as a device index tensor made
+    once per name list: a captured step may not copy from the host."""
     if body_names is None:
         return slice(None)
-    missing = [n for n in body_names if n not in command.body_names]
+    return _column_ids(tuple(command.body_names), tuple(body_names), command.body_pos_relative_w.device)
+
+
+@functools.lru_cache(maxsize=64)
+def _column_ids(tracked: tuple[str, ...], body_names: tuple[str, ...], device) -> torch.Tensor:
+    missing = [n for n in body_names if n not in tracked]
     if missing:
-        raise ValueError(f"bodies {missing} are not tracked by the motion command. Tracked: {command.body_names}")
-    return [command.body_names.index(n) for n in body_names]
+        raise ValueError(f"bodies {missing} are not tracked by the motion command. Tracked: {list(tracked)}")
+    return torch.tensor([tracked.index(n) for n in body_names], dtype=torch.long, device=device)
 
 
 def quat_error_magnitude(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:

@@ -8,6 +8,8 @@ a squared distance [m², rad²].
 
 from __future__ import annotations
 
+import functools
+
 import torch
 
 from agile.rl_env.managers import SceneEntityCfg
@@ -24,13 +26,19 @@ def _reference(env, command_name: str):
 
 # -- the palm frame: a fixed offset from a body (AGILE: an `ee_frame` FrameTransformer on the right palm) ---------
 
+@functools.lru_cache(maxsize=16)
+def _offset_tensor(offset_m: tuple[float, float, float], device) -> torch.Tensor:
+    """The offset on the device, made once: a captured step may not copy from the host."""
+    return torch.tensor(offset_m, dtype=torch.float32, device=device)
+
+
 def palm_pose_w(env, palm_cfg: SceneEntityCfg, offset_m: tuple[float, float, float]) -> tuple[torch.Tensor,
                                                                                                  torch.Tensor]:
     """(N, 3) position [m] and (N, 4) orientation (x, y, z, w) of the point `offset_m` in the frame of the first
     body of `palm_cfg`, world frame."""
     robot = env.scene[palm_cfg.name]
     pose = robot.body_pose_w[:, palm_cfg.body_ids].reshape(env.num_envs, -1, 7)[:, 0]
-    offset = torch.tensor(offset_m, device=pose.device).expand(env.num_envs, 3)
+    offset = _offset_tensor(tuple(offset_m), pose.device).expand(env.num_envs, 3)
     return pose[:, :3] + quat_rotate(pose[:, 3:7], offset), pose[:, 3:7]
 
 
