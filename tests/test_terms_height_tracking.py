@@ -149,7 +149,7 @@ class _Action:
 
 def test_adaptive_force_decay_against_hand_computed_steps():
     env = FakeEnv(num_envs=2)
-    command = types.SimpleNamespace(height_error_episode_mean_m=torch.tensor([0.05, 0.15]))
+    command = types.SimpleNamespace(metrics={"height_error_m": torch.tensor([0.05, 0.15])})
     action = _Action()
     env.command_manager = types.SimpleNamespace(get_term=lambda name: command)
     env.action_manager = types.SimpleNamespace(get_term=lambda name: action)
@@ -164,7 +164,7 @@ def test_adaptive_force_decay_against_hand_computed_steps():
         value = term(env, mask, **params)
         assert term.error_ema_m.item() == pytest.approx(ema) and value.item() == pytest.approx(scale)
         assert action.scale.item() == pytest.approx(scale)
-    command.height_error_episode_mean_m.fill_(1.0)
+    command.metrics["height_error_m"].fill_(1.0)
     assert term(env, both, **params).item() == 0.0  # never rises again
 
 

@@ -215,6 +215,7 @@ class MultiAgentEnv(gym.Env):
                       agent.action_manager.invalid_action) & was_alive
         truncated = agent.termination_manager.time_outs & was_alive & ~terminated
         reward = agent.reward_manager.compute(agent.step_dt, active=was_alive & ~self.sim_unstable)
+        agent.command_manager.update_metrics()
         mask = terminated.unsqueeze(-1)
         for robot_name in agent.robot_names:
             robot = self.scene[robot_name]
@@ -253,6 +254,7 @@ class MultiAgentEnv(gym.Env):
                    **self.sim.capacity.log()}
             for manager in (agent.reward_manager, agent.termination_manager):
                 log.update(manager.reset(env_mask))
+            log.update(agent.command_manager.finish_episodes(env_mask))
             agent.log.write(log, hold_unless=any_reset)
 
         self.sim.reset_worlds(env_mask)

@@ -238,6 +238,7 @@ class ManagerBasedRLEnv(gym.Env):
         terminated = self.termination_manager.terminated | invalid
         time_outs = self.termination_manager.time_outs & ~invalid
         reward = self.reward_manager.compute(self.step_dt, active=~self.sim_unstable)
+        self.command_manager.update_metrics()  # of the state the rewards judged, before resets replace it
 
         self._log.write(self.curriculum_manager.compute(self.reset_buf))
         self._reset_envs(self.reset_buf)
@@ -302,6 +303,7 @@ class ManagerBasedRLEnv(gym.Env):
         log.update(self.sim.capacity.log())
         for manager in (self.reward_manager, self.termination_manager):
             log.update(manager.reset(env_mask))
+        log.update(self.command_manager.finish_episodes(env_mask))  # the final state is still there
         # logs describe finished episodes: keep the last values while no env finishes
         self._log.write(log, hold_unless=any_reset)
 

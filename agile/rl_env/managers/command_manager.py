@@ -1,4 +1,5 @@
-"""Command manager: command terms (classes) resampled on timers and at resets."""
+"""Command manager: command terms (classes) resampled on timers and at resets, and the metrics they keep of each
+episode (tracking errors, task success) for training logs and evaluation."""
 
 from __future__ import annotations
 
@@ -7,9 +8,41 @@ import torch
 from agile.rl_env.managers.manager_base import build_class_terms
 from agile.utils.config import check_range
 
+VELOCITY_FIELDS = ("lin_vel_x_mps", "lin_vel_y_mps", "ang_vel_z_radps")
+"""The first `command_fields` of a base-velocity command (base yaw frame); a base-height command adds
+"base_height_m"."""
+
+
+class EpisodeMean:
+    """The running mean over each env's episode of a per-step value, kept on the device; `value` (N,) is the
+    metric (a term's `metrics` entry)."""
+
+    def __init__(self, num_envs: int, device):
+        self.sum = torch.zeros(num_envs, device=device)
+        self.steps = torch.zeros(num_envs, device=device)
+        self.value = torch.zeros(num_envs, device=device)
+
+    def add(self, step_value: torch.Tensor, counted: torch.Tensor | None = None) -> None:
+        """One step's (N,) values; where `counted` (N,) bool is False, or the value is not finite (a world that
+        blew up, which the env resets), the step does not count."""
+        finite = torch.isfinite(step_value)
+        counted = finite if counted is None else counted & finite
+        self.sum.add_(torch.where(counted, step_value, 0.0))
+        self.steps.add_(counted.float())
+        torch.div(self.sum, self.steps.clamp(min=1.0), out=self.value)
+
+    def start(self, env_mask: torch.Tensor) -> None:
+        """New episodes of the masked envs: nothing counted yet (value 0)."""
+        for buf in (self.sum, self.steps, self.value):
+            buf.masked_fill_(env_mask, 0.0)
+
 
 class CommandTerm:
     """Base of command terms: keeps a per-env resampling timer; subclasses define `command` and `_resample`."""
+
+    command_fields: tuple[str, ...] = ()
+    """The meaning of the command's columns where it has a layout that scripts read (eval.py measures the velocity
+    errors of a command starting with VELOCITY_FIELDS); empty for other commands (a motion reference)."""
 
     def __init__(self, cfg, env):
         self.cfg = cfg
@@ -19,6 +52,27 @@ class CommandTerm:
         self.fixed_command: torch.Tensor | None = None
         """(N, D) values that replace the drawn command of every env while set (`set_fixed_command`): evaluation
         at chosen commands, a different one per env if wished."""
+        self.metrics: dict[str, torch.Tensor] = {}
+        """(N,) float values describing each env's episode so far, units in the name ("joint_pos_error_rad"):
+        created in the term's __init__ (fixed keys and tensors: the env step may be captured as a CUDA graph),
+        updated on the device by `update_metrics`, completed by `finish_episodes`, zeroed at `reset`. The
+        CommandManager keeps every ended episode's values and logs their means (Metrics/<term>/<name>)."""
+        self._episode_means: list[EpisodeMean] = []
+
+    def _episode_mean(self, name: str) -> EpisodeMean:
+        """A metric that is the mean over the episode's steps of a per-step value (`EpisodeMean.add`)."""
+        mean = EpisodeMean(self.env.num_envs, self.env.device)
+        self.metrics[name] = mean.value
+        self._episode_means.append(mean)
+        return mean
+
+    def update_metrics(self) -> None:
+        """Once per env step, after the physics and before any reset: the metrics of the state the rewards judge
+        (an episode's last state included, its reset state not)."""
+
+    def finish_episodes(self, env_mask: torch.Tensor) -> None:
+        """For the envs whose episodes end now, before their worlds are reset (their final state is still there):
+        the end-of-episode metric values (e.g. where the object ended up)."""
 
     @property
     def command(self) -> torch.Tensor:
@@ -68,6 +122,10 @@ class CommandTerm:
         last episode's command)."""
 
     def reset(self, env_mask: torch.Tensor) -> dict:
+        for value in self.metrics.values():
+            value.masked_fill_(env_mask, 0.0)
+        for mean in self._episode_means:
+            mean.start(env_mask)
         self._draw_time_left(env_mask)
         self._resample(env_mask)
         self._update_command()
@@ -80,6 +138,15 @@ class CommandManager:
     def __init__(self, cfg, env):
         self.env = env
         self.terms: dict[str, CommandTerm] = build_class_terms(cfg, env, "command")
+        self.last_episode_metrics: dict[str, torch.Tensor] = {}
+        """(N,) "<term>/<name>": each term metric of each env's most recently ended episode, as it stood at the
+        end (evaluation reads it where an episode ended); preallocated, written in place."""
+        for name, term in self.terms.items():
+            for key, value in term.metrics.items():
+                if value.shape != (env.num_envs,) or not value.is_floating_point():
+                    raise ValueError(f"command '{name}': metrics['{key}'] must be a float tensor of one value per "
+                                     f"env, shape ({env.num_envs},); got {value.dtype} of shape {tuple(value.shape)}")
+                self.last_episode_metrics[f"{name}/{key}"] = torch.zeros_like(value)
 
     @property
     def active_terms(self) -> list[str]:
@@ -96,6 +163,28 @@ class CommandManager:
     def compute(self, dt: float) -> None:
         for term in self.terms.values():
             term.compute(dt)
+
+    def update_metrics(self) -> None:
+        """Each term's per-step metrics; the env calls it after the physics, before resetting ended envs."""
+        for term in self.terms.values():
+            term.update_metrics()
+
+    def finish_episodes(self, env_mask: torch.Tensor) -> dict:
+        """End the episodes of the masked envs; the env calls it before their worlds are reset. Each term writes
+        its end-of-episode values, then every metric of the masked envs goes to `last_episode_metrics`. Returns
+        the log entries "Metrics/<term>/<name>": means over the masked envs (0 where none ends)."""
+        count = env_mask.sum().clamp(min=1)
+        log = {}
+        for name, term in self.terms.items():
+            term.finish_episodes(env_mask)
+            for key, value in term.metrics.items():
+                last = self.last_episode_metrics.get(f"{name}/{key}")
+                if last is None:
+                    raise RuntimeError(f"command '{name}': metrics['{key}'] appeared after the term was built; "
+                                       "create every metric in the term's __init__ (a captured step cannot grow)")
+                last.copy_(torch.where(env_mask, value, last))
+                log[f"Metrics/{name}/{key}"] = torch.where(env_mask, value, 0.0).sum() / count
+        return log
 
     def reset(self, env_mask: torch.Tensor) -> dict:
         for term in self.terms.values():

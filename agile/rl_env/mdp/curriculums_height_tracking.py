@@ -15,7 +15,7 @@ __all__ = ["adaptive_force_decay", "terrain_levels_tracking_at_timeout", "update
 class adaptive_force_decay(ManagerTermBase):  # noqa: N801 (AGILE's name)
     """AGILE `adaptive_force_decay` with the height-error metric, decaying when it is below the threshold: on
     every env step with ending episodes, the metric is the mean over them of the command's
-    `height_error_episode_mean_m`; its exponential moving average (weight `ema_alpha` on the new value; it starts
+    `metrics["height_error_m"]`; its exponential moving average (weight `ema_alpha` on the new value; it starts
     at 1 m, far above any threshold, so nothing decays before episodes have ended well) drives the action's
     scale:
     - EMA < `threshold_m`: scale ×= `decay` (AGILE: 0.9999, about 6,900 such steps to halve);
@@ -41,7 +41,7 @@ class adaptive_force_decay(ManagerTermBase):  # noqa: N801 (AGILE's name)
                  ema_alpha: float = 0.05, decay: float = 0.9999, disable_below: float = 0.01) -> torch.Tensor:
         num_ended = env_mask.sum()
         any_ended = num_ended > 0
-        error_m = (self.command.height_error_episode_mean_m * env_mask).sum() / num_ended.clamp(min=1)
+        error_m = (self.command.metrics["height_error_m"] * env_mask).sum() / num_ended.clamp(min=1)
         ema = (1.0 - ema_alpha) * self.error_ema_m + ema_alpha * error_m
         self.error_ema_m.copy_(torch.where(any_ended, ema, self.error_ema_m))
         scale = torch.where(self.error_ema_m < threshold_m, self.scale * decay, self.scale)
@@ -53,7 +53,7 @@ class adaptive_force_decay(ManagerTermBase):  # noqa: N801 (AGILE's name)
 
 class terrain_levels_tracking_at_timeout(ManagerTermBase):  # noqa: N801 (AGILE's name)
     """AGILE `terrain_levels_tracking_at_timeout`: an ending episode is a success when it ended by time-out with
-    the command's `height_error_episode_mean_m` below `error_threshold_m`, else a failure; an env moves one row
+    the command's `metrics["height_error_m"]` below `error_threshold_m`, else a failure; an env moves one row
     up after `n_successes` successes, down after `n_failures` failures (each move clears both counts). Only once
     the lift action `lift_action_name` has a scale at or below `max_lift_scale` (AGILE: its prerequisite, the lift
     curriculum below 0.01): until then episodes are not counted and every env stays on its row. Returns the mean
@@ -70,7 +70,7 @@ class terrain_levels_tracking_at_timeout(ManagerTermBase):  # noqa: N801 (AGILE'
     def __call__(self, env, env_mask, command_name: str, error_threshold_m: float = 0.1, n_successes: int = 5,
                  n_failures: int = 5, lift_action_name: str = "lift", max_lift_scale: float = 0.01) -> torch.Tensor:
         counted = env_mask & (self.lift.scale <= max_lift_scale)
-        succeeded = env.termination_manager.time_outs & (self.command.height_error_episode_mean_m < error_threshold_m)
+        succeeded = env.termination_manager.time_outs & (self.command.metrics["height_error_m"] < error_threshold_m)
         move_up, move_down = self.outcomes.count(counted, succeeded, ~succeeded, n_successes, n_failures)
         env.sim.update_terrain_levels(move_up, move_down)
         return env.sim.terrain_levels.float().mean()

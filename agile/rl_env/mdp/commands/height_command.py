@@ -36,10 +36,11 @@ class SmoothHeightCommand(CommandTerm):
     (AGILE's HeightTracking-G1: 1000 m/s, i.e. it jumps there at the next step). A new episode's command starts at
     the point's measured height (clamped to the range), so the first target is approached from where the robot is.
 
-    `settled`: more than `settle_time_s` since the last resampling. `height_error_episode_mean_m` (AGILE's
+    `settled`: more than `settle_time_s` since the last resampling. `metrics["height_error_m"]` (AGILE's
     `height_error` metric, which `adaptive_force_decay` reads when episodes end): the mean over the episode's
     steps that are settled and whose command is >= 0 (a relaxation command is not a height to reach) of
-    |measured - command|; 0 for an episode without such a step.
+    |measured - command|; 0 for an episode without such a step. It is counted in `compute`, on the settle clock, as
+    AGILE does: an episode's last state does not count (nor its reset state, unless settle_time_s is 0).
     """
 
     def __init__(self, cfg: SmoothHeightCommandCfg, env):
@@ -74,9 +75,7 @@ class SmoothHeightCommand(CommandTerm):
         self.ramp_speed_mps = torch.zeros(n, device=device)
         self.steps_since_resample = torch.zeros(n, dtype=torch.long, device=device)
         self.settle_steps = int(cfg.settle_time_s / env.step_dt)
-        self.error_sum_m = torch.zeros(n, device=device)
-        self.error_steps = torch.zeros(n, device=device)
-        self.height_error_episode_mean_m = torch.zeros(n, device=device)
+        self._height_error = self._episode_mean("height_error_m")
 
     @property
     def command(self) -> torch.Tensor:
@@ -123,24 +122,17 @@ class SmoothHeightCommand(CommandTerm):
         step_m = torch.clamp(self.drawn_height_m - self.target_height_m, -max_step_m, max_step_m)
         self.target_height_m.add_(step_m)
 
-    def _update_metrics(self) -> None:
+    def compute(self, dt: float) -> None:
+        # the settle clock and the height error before the resampling (AGILE's order)
         self.steps_since_resample.add_(1)
         error_m = (self.measured_height_m - self.target_height_m).abs()
-        counted = self.settled & (self.target_height_m >= 0.0)
-        self.error_sum_m.add_(error_m * counted)
-        self.error_steps.add_(counted.float())
-        self.height_error_episode_mean_m.copy_(self.error_sum_m / self.error_steps.clamp(min=1.0))
-
-    def compute(self, dt: float) -> None:
-        self._update_metrics()
+        self._height_error.add(error_m, counted=self.settled & (self.target_height_m >= 0.0))
         super().compute(dt)
 
     def _start_episodes(self, env_mask: torch.Tensor) -> None:
         low_m, high_m = self.cfg.ranges.height_m
         start_m = self.measured_height_m.clamp(low_m, high_m)
         self.target_height_m.copy_(torch.where(env_mask, start_m, self.target_height_m))
-        for buf in (self.error_sum_m, self.error_steps, self.height_error_episode_mean_m):
-            buf.masked_fill_(env_mask, 0.0)
 
 
 @configclass
