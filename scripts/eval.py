@@ -9,7 +9,10 @@
 Each env runs `num_episodes` episodes of `episode_length_s` (pushes off unless --pushes). Commands are
 drawn by the task's command term (uniform over its ranges, a share standing), or fixed with --command.
 Without --checkpoint the policy shipped with agile for the task is evaluated. Prints and writes JSON.
-Tasks with a base-height command also report the height error (commanded minus measured above the terrain).
+Velocity errors are measured for tasks with a velocity command, the height error (commanded minus measured above
+the terrain) for those with a base-height command; every task reports its command terms' episode metrics
+(`CommandTerm.metrics`: the motion-tracking errors, pick-and-place success) as means over the ended episodes
+under "command_metrics".
 """
 
 from __future__ import annotations
@@ -22,10 +25,26 @@ from utils import cli, multi_agent
 from utils.policy import inference_cfg, load_policy
 
 
-def height_command_sensor(env, command_name: str) -> str | None:
-    """The height scanner that measures the commanded base height, for a command with a height (a 4th value)."""
+def velocity_command_name(env, command_name: str | None = None) -> str | None:
+    """The command whose velocity errors are measured: `command_name`, or the one command term with a velocity
+    layout (`CommandTerm.command_fields`); None where the task has none (motion tracking, pick-and-place)."""
+    from agile.rl_env.managers.command_manager import VELOCITY_FIELDS
+
+    terms = env.command_manager.terms
+    with_velocity = [name for name, term in terms.items() if term.command_fields[:3] == VELOCITY_FIELDS]
+    if command_name is not None and command_name not in with_velocity:
+        cli.fail(f"command '{command_name}' is not a velocity command; the task's velocity commands: {with_velocity}")
+    if command_name is None and len(with_velocity) > 1:
+        cli.fail(f"the task has several velocity commands {with_velocity}: name the one to evaluate")
+    return command_name or (with_velocity[0] if with_velocity else None)
+
+
+def height_command_sensor(env, command_name: str | None) -> str | None:
+    """The height scanner that measures the commanded base height, for a velocity command with a height."""
+    if command_name is None:
+        return None
     term = env.command_manager.get_term(command_name)
-    return term.cfg.height_sensor_name if term.command.shape[1] >= 4 else None
+    return term.cfg.height_sensor_name if "base_height_m" in term.command_fields else None
 
 
 SPEED_BIN_EDGES_MPS = (0.05, 0.25, 0.5, 0.75, 1.0)
@@ -60,40 +79,48 @@ class ErrorByCommand:
                 for i, (e, n) in enumerate(zip(self.error_sum.tolist(), self.steps.tolist())) if n > 0]
 
 
-def evaluate_per_env(env, policy, num_episodes: int, command_name: str = "base_velocity", recorders=()) -> dict:
+def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = None, recorders=()) -> dict:
     """Sums per env over `num_episodes` episodes of every env: (N,) tensors of tracking errors over the steps
-    alive, steps alive, episodes ended, falls and ended episodes' lengths; each reward term's total; and the
-    errors by commanded speed (and height)."""
+    alive (with a velocity command), steps alive, episodes ended, falls, ended episodes' lengths and the command
+    metrics of the ended episodes ("command_metric/<term>/<name>"); each reward term's total; and the errors by
+    commanded speed (and height)."""
     import torch
 
     from agile.rl_env.mdp import base_height_above_ground
 
     n = env.num_envs
     zeros = lambda: torch.zeros(n, device=env.device)  # noqa: E731
-    sums = {key: zeros() for key in ("lin_vel_error_mps", "ang_vel_error_radps", "base_height_error_m",
-                                     "steps_alive", "episodes", "falls", "ended_length_steps")}
+    command_name = velocity_command_name(env, command_name)
+    keys = ["steps_alive", "episodes", "falls", "ended_length_steps"]
+    keys += ["lin_vel_error_mps", "ang_vel_error_radps"] if command_name is not None else []
+    height_sensor = height_command_sensor(env, command_name)
+    keys += ["base_height_error_m"] if height_sensor is not None else []
+    sums = {key: zeros() for key in keys}
     terminations = env.termination_manager
     failure_terms = [name for name, cfg in terminations.term_cfgs.items() if not cfg.time_out]
     sums.update({f"ended_by/{name}": zeros() for name in failure_terms})
+    last_metrics = env.command_manager.last_episode_metrics  # written in place by each step for the ended envs
+    sums.update({f"command_metric/{key}": zeros() for key in last_metrics})
     episode_steps = zeros()
     term_sums = {name: torch.zeros((), device=env.device) for name in env.reward_manager.weights}
     robot = env.scene[env.action_manager.policy_entity_name()]  # the robot the policy drives
-    height_sensor = height_command_sensor(env, command_name)
     by_speed = ErrorByCommand(SPEED_BIN_EDGES_MPS, env.device)
     by_height = ErrorByCommand(HEIGHT_BIN_EDGES_M, env.device)
     obs, _ = env.reset()
     with torch.inference_mode():
         for step in range(num_episodes * env.max_episode_length):
-            command = env.command_manager.get_command(command_name).clone()
+            if command_name is not None:
+                command = env.command_manager.get_command(command_name).clone()
             obs, reward, terminated, truncated, _ = env.step(policy(obs))
             for recorder in recorders:
                 recorder.record(env, step * env.step_dt)
             done = terminated | truncated
             alive = (~done).float()  # the state of a reset env is its new episode's first state
-            lin_vel_error = torch.linalg.norm(command[:, :2] - robot.root_lin_vel_b[:, :2], dim=1)
-            sums["lin_vel_error_mps"] += lin_vel_error * alive
-            by_speed.add(torch.linalg.norm(command[:, :2], dim=1), lin_vel_error, alive)
-            sums["ang_vel_error_radps"] += (command[:, 2] - robot.root_ang_vel_b[:, 2]).abs() * alive
+            if command_name is not None:
+                lin_vel_error = torch.linalg.norm(command[:, :2] - robot.root_lin_vel_b[:, :2], dim=1)
+                sums["lin_vel_error_mps"] += lin_vel_error * alive
+                by_speed.add(torch.linalg.norm(command[:, :2], dim=1), lin_vel_error, alive)
+                sums["ang_vel_error_radps"] += (command[:, 2] - robot.root_ang_vel_b[:, 2]).abs() * alive
             if height_sensor is not None:
                 height_error = (command[:, 3] - base_height_above_ground(env, sensor_name=height_sensor)).abs()
                 sums["base_height_error_m"] += height_error * alive
@@ -108,37 +135,39 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str = "base_v
             sums["falls"] += terminated.float()
             for name in failure_terms:  # which failure ended the episode (several can at once)
                 sums[f"ended_by/{name}"] += terminations.term_dones[name].float()
-    by_command = {"lin_vel_error_mps_by_speed_mps": by_speed.rows()}
+            for key, value in last_metrics.items():
+                sums[f"command_metric/{key}"] += value * done
+    by_command = {"lin_vel_error_mps_by_speed_mps": by_speed.rows()} if command_name is not None else {}
     if height_sensor is not None:
         by_command["base_height_error_m_by_height_m"] = by_height.rows()
     return {"sums": sums, "reward_totals": term_sums, "steps": num_episodes * env.max_episode_length,
-            "has_height_command": height_sensor is not None, "error_by_command": by_command}
+            "error_by_command": by_command}
 
 
-def summarise(sums: dict, step_dt: float, has_height_command: bool, mask=None) -> dict:
+def summarise(sums: dict, step_dt: float, mask=None) -> dict:
     """The metrics of the envs in `mask` (all envs if None) from `evaluate_per_env`'s sums."""
     total = {key: float(value.sum() if mask is None else value[mask].sum()) for key, value in sums.items()}
     episodes = max(total["episodes"], 1.0)
     steps_alive = max(total["steps_alive"], 1.0)
     metrics = {"episodes": int(total["episodes"]), "falls": int(total["falls"]),
                "fall_rate": total["falls"] / episodes,
-               "lin_vel_error_mps": total["lin_vel_error_mps"] / steps_alive,
-               "ang_vel_error_radps": total["ang_vel_error_radps"] / steps_alive,
                "mean_episode_length_s": total["ended_length_steps"] * step_dt / episodes}
-    if has_height_command:
-        metrics["base_height_error_m"] = total["base_height_error_m"] / steps_alive
+    for key in ("lin_vel_error_mps", "ang_vel_error_radps", "base_height_error_m"):  # what the task commands
+        if key in total:
+            metrics[key] = total[key] / steps_alive
     # "falls" are the episodes a failure term ended; by term (an episode two terms ended counts for both)
     metrics["falls_by_term"] = {key.split("/", 1)[1]: int(value) for key, value in total.items()
                                 if key.startswith("ended_by/")}
+    metrics["command_metrics"] = {key.split("/", 1)[1]: value / episodes for key, value in total.items()
+                                  if key.startswith("command_metric/")}
     return metrics
 
 
-def evaluate(env, policy, num_episodes: int, command_name: str = "base_velocity", recorders=()) -> dict:
-    """Tracking errors (over the steps alive), fall rate and episode length over every env's `num_episodes`
-    episodes; the base-height error too where the command has a height."""
+def evaluate(env, policy, num_episodes: int, command_name: str | None = None, recorders=()) -> dict:
+    """Fall rate, episode length and the command metrics over every env's `num_episodes` episodes; the velocity
+    errors (over the steps alive) for a velocity command, the base-height error where it has a height."""
     result = evaluate_per_env(env, policy, num_episodes, command_name, recorders)
-    metrics = {"num_envs": env.num_envs,
-               **summarise(result["sums"], env.step_dt, result["has_height_command"])}
+    metrics = {"num_envs": env.num_envs, **summarise(result["sums"], env.step_dt)}
     metrics["reward_per_step"] = {name: float(v) / (env.num_envs * result["steps"])
                                   for name, v in result["reward_totals"].items()}
     metrics["error_by_command"] = result["error_by_command"]
@@ -152,10 +181,13 @@ def sweep_cells(lin_vel_x_mps: list[float], base_height_m: list[float] | None) -
     return [(vx, 0.0, 0.0, h) for h in base_height_m for vx in lin_vel_x_mps]
 
 
-def sweep(env, policy, num_episodes: int, cells: list[tuple[float, ...]], command_name: str = "base_velocity") -> list:
+def sweep(env, policy, num_episodes: int, cells: list[tuple[float, ...]], command_name: str | None = None) -> list:
     """Each env holds one cell's command (env i: cell i mod cells) for all its episodes; metrics per cell."""
     import torch
 
+    command_name = velocity_command_name(env, command_name)
+    if command_name is None:
+        cli.fail(f"a sweep sets velocity commands; this task has none (commands: {env.command_manager.active_terms})")
     term = env.command_manager.get_term(command_name)
     if len(cells[0]) != term.command.shape[1]:
         cli.fail(f"the sweep gives {len(cells[0])} command values; {command_name} has {term.command.shape[1]} "
@@ -167,7 +199,7 @@ def sweep(env, policy, num_episodes: int, cells: list[tuple[float, ...]], comman
     result = evaluate_per_env(env, policy, num_episodes, command_name)
     rows = []
     for i, cell in enumerate(cells):
-        metrics = summarise(result["sums"], env.step_dt, result["has_height_command"], mask=cell_of_env == i)
+        metrics = summarise(result["sums"], env.step_dt, mask=cell_of_env == i)
         rows.append({"command": list(cell), "num_envs": int((cell_of_env == i).sum()), **metrics})
     return rows
 
@@ -282,7 +314,9 @@ def main(argv=None) -> None:
     env_cfg, agent_cfg, device = cli.load_task(args)
     env_cfg = inference_cfg(env_cfg)
     if args.command is not None:
-        command = env_cfg.commands.base_velocity
+        command = getattr(env_cfg.commands, "base_velocity", None)
+        if command is None:
+            cli.fail(f"--command sets the base_velocity command; {args.task} has none")
         vx, vy, wz = args.command
         command.ranges.lin_vel_x, command.ranges.lin_vel_y, command.ranges.ang_vel_z = (vx, vx), (vy, vy), (wz, wz)
         command.rel_standing_envs = 0.0

@@ -79,11 +79,13 @@ def report_markdown(results: list[dict], plots: list[str]) -> str:
     lines += ["| task | kind | device | envs x episodes x length | fall rate | vel error [m/s] | yaw-rate error [rad/s] "
               "| height error [m] | episode length [s] | verdict |", "|" + "---|" * 10]
     for r in results:
-        height = f"{r['base_height_error_m']:.3f}" if "base_height_error_m" in r else "-"
+        # a task without a velocity (or height) command has no such error: "-"
+        errors = [f"{r[k]:.3f}" if k in r else "-" for k in ("lin_vel_error_mps", "ang_vel_error_radps",
+                                                              "base_height_error_m")]
         state, missed = verdict(r)
         lines.append(f"| {r['task']} | {r['kind']} | {r['device']} | {r['num_envs']} x {r['num_episodes']} x "
-                     f"{r['episode_length_s']:g} s | {r['fall_rate']:.3f} | {r['lin_vel_error_mps']:.3f} | "
-                     f"{r['ang_vel_error_radps']:.3f} | {height} | {r['mean_episode_length_s']:.2f} | {state}"
+                     f"{r['episode_length_s']:g} s | {r['fall_rate']:.3f} | {' | '.join(errors)} | "
+                     f"{r['mean_episode_length_s']:.2f} | {state}"
                      + (f": {'; '.join(missed)}" if missed and state == "FAIL" else "") + " |")
     lines += ["", "Criteria (maxima) per task:", ""]
     lines += [f"- {r['task']}: " + ", ".join(f"{k} <= {v:g}" for k, v in r["criteria"].items()) for r in results]
@@ -91,6 +93,11 @@ def report_markdown(results: list[dict], plots: list[str]) -> str:
     for r in results:
         terms = ", ".join(f"{k} {v:+.4f}" for k, v in r["reward_per_step"].items())
         lines.append(f"- {r['task']}: {terms}")
+    with_metrics = [r for r in results if r.get("command_metrics")]
+    if with_metrics:
+        lines += ["", "Command metrics (means over the ended episodes):", ""]
+        lines += [f"- {r['task']}: " + ", ".join(f"{k} {v:.4g}" for k, v in r["command_metrics"].items())
+                  for r in with_metrics]
     if plots:
         lines += [""] + [f"![{os.path.splitext(p)[0]}]({p})" for p in plots]
     else:
@@ -130,7 +137,8 @@ def plot_results(results: list[dict], out_dir: str) -> list[str]:
         fig.savefig(os.path.join(out_dir, name), dpi=110)
         plt.close(fig)
         names.append(name)
-        names.append(plot_error_by_command(r, out_dir, plt))
+        if r["error_by_command"]:  # none without a velocity command
+            names.append(plot_error_by_command(r, out_dir, plt))
     return names
 
 

@@ -7,6 +7,7 @@ from dataclasses import field
 import torch
 
 from agile.rl_env.managers import CommandTerm
+from agile.rl_env.managers.command_manager import VELOCITY_FIELDS
 from agile.utils.config import check_range, configclass
 
 
@@ -16,6 +17,8 @@ class UniformNullVelocityCommand(CommandTerm):
     A share `rel_standing_envs` of draws is exactly zero, and any draw whose norm is below
     `min_vel_norm` is zeroed too, so that "stand still" is a well-defined command.
     """
+
+    command_fields = VELOCITY_FIELDS
 
     def __init__(self, cfg: UniformNullVelocityCommandCfg, env):
         super().__init__(cfg, env)

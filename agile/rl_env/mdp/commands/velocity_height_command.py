@@ -9,6 +9,7 @@ from dataclasses import field
 import torch
 
 from agile.rl_env.managers import CommandTerm
+from agile.rl_env.managers.command_manager import VELOCITY_FIELDS
 from agile.utils.config import check_range, configclass
 from agile.utils.math import wrap_to_pi
 
@@ -28,6 +29,8 @@ class UniformVelocityBaseHeightCommand(CommandTerm):
     With `heading_command`, a share `rel_heading_envs` of walking envs get wz from a heading target instead:
     wz = clip(heading_control_stiffness · wrap(heading_target - heading), ranges.ang_vel_z).
     """
+
+    command_fields = (*VELOCITY_FIELDS, "base_height_m")
 
     def __init__(self, cfg: UniformVelocityBaseHeightCommandCfg, env):
         super().__init__(cfg, env)
