@@ -80,7 +80,7 @@ def command_env(num_envs: int = 2) -> FakeEnv:
 def test_tracking_command_follows_the_file_frame_by_frame(trajectory_file):
     env = command_env()
     cfg = TrackingCommandCfg(trajectory_files=[str(trajectory_file)], start_step_range=(25, 25),
-                             reset_joints_to_reference=False)
+                             reset_joints_to_reference=False, object_name=None)
     command = TrackingCommand(cfg, env)
     command.reset(torch.tensor([True, True]))
     torch.testing.assert_close(command.command, torch.tensor([[0.5, -1.0], [0.5, -1.0]]))

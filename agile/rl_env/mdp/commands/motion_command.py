@@ -11,6 +11,10 @@ When the motion ends before the episode, the env continues from a newly drawn fr
 The body targets the rewards compare with are anchor-relative: each tracked reference body is moved by the
 yaw-and-horizontal offset between the reference anchor (torso) and the robot's anchor, keeping the reference
 height, so that the body rewards judge the pose, not a drift of the whole robot.
+
+Metrics of each episode (`CommandTerm.metrics`), means over its steps: `body_pos_error_m`, the mean over the
+tracked bodies of the distance from each to its anchor-relative target (the body rewards' targets), and
+`joint_pos_error_rad`, the mean over all joints of |q - q_ref|.
 """
 
 from __future__ import annotations
@@ -64,7 +68,10 @@ class MotionCommand(CommandTerm):
         where = f"commands: motion file '{cfg.motion_file}'"
         motion = load_motion(cfg.motion_file)
         check_names_match(motion.joint_names, robot.joint_names, "joint", where)
-        self.body_ids, self.body_names = robot.find_bodies(cfg.body_names, preserve_order=True)
+        body_ids, self.body_names = robot.find_bodies(cfg.body_names, preserve_order=True)
+        self.body_ids = torch.tensor(body_ids, dtype=torch.long, device=device)
+        """The tracked bodies' indices in the robot, on the device: a captured step may not copy a list from the
+        host."""
         root_body = robot.body_names[0]
         check_names_match(motion.body_names, [root_body, *self.body_names], "body", where)
         if cfg.anchor_body_name not in self.body_names:
@@ -90,6 +97,8 @@ class MotionCommand(CommandTerm):
         self.motion_root_vel = tensor(motion.body_lin_vel_w[:, root]), tensor(motion.body_ang_vel_w[:, root])
         self.anchor_index = self.body_names.index(cfg.anchor_body_name)
         """The anchor's index among the tracked bodies."""
+        self.anchor_body_id = body_ids[self.anchor_index]
+        """The anchor's index in the robot (a Python int: indexing with it copies nothing)."""
 
         n, b = env.num_envs, len(self.body_ids)
         self.time_steps = torch.zeros(n, dtype=torch.long, device=device)
@@ -105,6 +114,8 @@ class MotionCommand(CommandTerm):
         """Failures per bin since the last env step."""
         kernel = torch.tensor([cfg.adaptive_lambda ** i for i in range(cfg.adaptive_kernel_size)], device=device)
         self.kernel = (kernel / kernel.sum()).view(1, 1, -1)
+        self._body_pos_error = self._episode_mean("body_pos_error_m")
+        self._joint_pos_error = self._episode_mean("joint_pos_error_rad")
 
     # -- the command and the reference at each env's frame ------------------------------------------------
 
@@ -164,11 +175,11 @@ class MotionCommand(CommandTerm):
 
     @property
     def robot_anchor_pos_w(self) -> torch.Tensor:
-        return self.robot.body_pose_w[:, self.body_ids[self.anchor_index], :3]
+        return self.robot.body_pose_w[:, self.anchor_body_id, :3]
 
     @property
     def robot_anchor_quat_w(self) -> torch.Tensor:
-        return self.robot.body_pose_w[:, self.body_ids[self.anchor_index], 3:7]
+        return self.robot.body_pose_w[:, self.anchor_body_id, 3:7]
 
     # -- adaptive sampling ----------------------------------------------------------------------------------
 
@@ -212,6 +223,12 @@ class MotionCommand(CommandTerm):
         robot.update()
 
     # -- per step -------------------------------------------------------------------------------------------
+
+    def update_metrics(self) -> None:
+        """The tracking errors of the state the rewards judge, against the targets they use."""
+        body_error_m = torch.linalg.norm(self.robot_body_pos_w - self.body_pos_relative_w, dim=-1)
+        self._body_pos_error.add(body_error_m.mean(dim=-1))
+        self._joint_pos_error.add((self.robot.joint_pos - self.joint_pos).abs().mean(dim=-1))
 
     def compute(self, dt: float) -> None:
         """Advance every env one frame; an env past the motion's end starts again from a sampled frame."""

@@ -4,6 +4,11 @@ Each env follows one trajectory (drawn at its episode start among the configured
 control rate, one frame per env step from a random start frame; past its end it holds the last frame. At the
 start the tracked joints are put at the reference (AGILE's `reset_robot_to_trajectory` event). The reference
 gives the tracked joints' targets, the anchor body's pose and the object's pose, the phase and the progress.
+
+Metrics of each episode (`CommandTerm.metrics`): `joint_pos_error_rad`, the mean over its steps and the tracked
+joints of |q - q_ref|; with an object (`object_name`), `object_lifted` (1 if the object was ever `lift_margin_m`
+above its height at the episode start), `object_goal_distance_m` (at the end, from the object to the
+trajectory's last object position) and `object_at_goal` (1 if that is within `goal_tolerance_m`).
 """
 
 from __future__ import annotations
@@ -73,6 +78,21 @@ class TrackingCommand(CommandTerm):
         """(N,) each env's frame of its trajectory."""
         self._command = torch.zeros(n, len(self.joint_names), device=device)
 
+        self._joint_pos_error = self._episode_mean("joint_pos_error_rad")
+        self.object = None
+        if cfg.object_name is not None:
+            if cfg.object_name not in env.scene:
+                raise ValueError(f"object_name '{cfg.object_name}' is not in the scene {sorted(env.scene.keys())}; "
+                                 "None measures no object")
+            if cfg.lift_margin_m < 0.0 or cfg.goal_tolerance_m <= 0.0:
+                raise ValueError(f"lift_margin_m must be >= 0 and goal_tolerance_m > 0 [m], got "
+                                 f"{cfg.lift_margin_m} and {cfg.goal_tolerance_m}")
+            self.object = env.scene[cfg.object_name]
+            self.object_start_height_m = torch.zeros(n, device=device)
+            """(N,) the object's height at the episode start, world frame [m]."""
+            for name in ("object_lifted", "object_goal_distance_m", "object_at_goal"):
+                self.metrics[name] = torch.zeros(n, device=device)
+
     # -- the reference at each env's frame ---------------------------------------------------------------
 
     @property
@@ -100,6 +120,12 @@ class TrackingCommand(CommandTerm):
     def object_pos_w(self) -> torch.Tensor:
         """(N, 3) the object's reference position, world frame [m]."""
         return self._at_frame(self.ref_object_pos) + self.env.env_origins
+
+    @property
+    def goal_object_pos_w(self) -> torch.Tensor:
+        """(N, 3) the object's reference position at the trajectory's last frame (where it is put down) [m]."""
+        last = self.num_frames[self.trajectory_ids] - 1
+        return self.ref_object_pos[self.trajectory_ids, last] + self.env.env_origins
 
     @property
     def object_quat_w(self) -> torch.Tensor:
@@ -174,6 +200,27 @@ class TrackingCommand(CommandTerm):
         self.time_steps.copy_(torch.minimum(self.time_steps + 1, self.num_frames[self.trajectory_ids] - 1))
         super().compute(dt)
 
+    # -- metrics ----------------------------------------------------------------------------------------
+
+    def _start_episodes(self, env_mask: torch.Tensor) -> None:
+        if self.object is not None:  # after the reset events: where the object starts this episode
+            start_m = self.object.root_pos_w[:, 2]
+            self.object_start_height_m.copy_(torch.where(env_mask, start_m, self.object_start_height_m))
+
+    def update_metrics(self) -> None:
+        self._joint_pos_error.add((self.robot_joint_pos - self.joint_pos).abs().mean(dim=-1))
+        if self.object is not None:
+            lifted = self.object.root_pos_w[:, 2] > self.object_start_height_m + self.cfg.lift_margin_m
+            self.metrics["object_lifted"].copy_(torch.maximum(self.metrics["object_lifted"], lifted.float()))
+
+    def finish_episodes(self, env_mask: torch.Tensor) -> None:
+        if self.object is None:
+            return
+        distance_m = torch.linalg.norm(self.object.root_pos_w - self.goal_object_pos_w, dim=-1)
+        for name, value in (("object_goal_distance_m", distance_m),
+                            ("object_at_goal", (distance_m <= self.cfg.goal_tolerance_m).float())):
+            self.metrics[name].copy_(torch.where(env_mask, value, self.metrics[name]))
+
 
 @configclass
 class TrackingCommandCfg:
@@ -190,3 +237,11 @@ class TrackingCommandCfg:
     the shipped trajectories are made on this task's table, so 0)."""
     resampling_time_range_s: tuple[float, float] = (1.0e9, 1.0e9)
     """Never on a timer: a trajectory and start frame are drawn at episode starts only."""
+    object_name: str | None = "object"
+    """The scene entity that is picked and placed, for the object metrics; None: joint metrics only."""
+    lift_margin_m: float = 0.02
+    """The object counts as lifted once it is this far above its height at the episode start [m]: resting on the
+    table it jitters by millimetres in its contact, and a touch rocks it, which is no lift."""
+    goal_tolerance_m: float = 0.05
+    """The object is at the goal when it ends the episode within this distance of the trajectory's last object
+    position [m]."""

@@ -26,9 +26,10 @@ UPPER_BODY = SceneEntityCfg("robot", joint_names=UPPER_BODY_JOINTS)
 PALM = SceneEntityCfg("robot", body_names=PALM_BODY)
 ROBOT_FRICTION_RANGE = (0.8, 1.0)
 TRAJECTORIES = ["pick_place_left", "pick_place_near_left", "pick_place_right"]
-LIFTED_HEIGHT_M = CUBE_START_POS_M[2] + 0.02
+LIFT_MARGIN_M = 0.02
+LIFTED_HEIGHT_M = CUBE_START_POS_M[2] + LIFT_MARGIN_M
 """AGILE rewards `object_is_lifted` above the object's initial height; 2 cm above it here, so that a cube
-resting on the table (or rocked by a touch) earns nothing."""
+resting on the table (or rocked by a touch) earns nothing. The `object_lifted` metric uses the same margin."""
 
 
 # -- scene: the robot at the env origin facing +x, the table in front of it, the cube on the table ----------------
@@ -50,7 +51,8 @@ def pick_place_sim_cfg() -> SimCfg:
 class CommandsCfg:
     # AGILE's `reset_robot_to_trajectory` event (start frame 0..150, joints put at the reference) is the command's
     # own reset here, so that the frame it draws is the one it then follows
-    reference = mdp.TrackingCommandCfg(trajectory_files=list(TRAJECTORIES), start_step_range=(0, 150))
+    reference = mdp.TrackingCommandCfg(trajectory_files=list(TRAJECTORIES), start_step_range=(0, 150),
+                                       object_name="object", lift_margin_m=LIFT_MARGIN_M, goal_tolerance_m=0.05)
 
 
 # -- actions: 17 upper-body joints by delta targets, the frozen lower-body policy by a 4-D command -----------------
