@@ -59,7 +59,7 @@ def reset_joints_by_scale(env, env_mask: torch.Tensor, position_range: tuple[flo
     pos = torch.clamp(pos, robot.joint_pos_limits[..., 0], robot.joint_pos_limits[..., 1])
     if asset_cfg.joint_ids != slice(None):
         keep = torch.ones(robot.num_joints, dtype=torch.bool, device=env.device)
-        keep[asset_cfg.joint_ids] = False
+        keep.index_fill_(0, asset_cfg.joint_ids, False)  # a scalar put by index would copy it from the host
         pos = torch.where(keep, robot.joint_pos, pos)
         vel = torch.where(keep, robot.joint_vel, vel)
     robot.write_joint_state(pos, vel, env_mask)

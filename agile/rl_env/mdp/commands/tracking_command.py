@@ -187,7 +187,7 @@ class TrackingCommand(CommandTerm):
         if self.cfg.reset_joints_to_reference:
             joint_pos, joint_vel = self.robot.joint_pos.clone(), self.robot.joint_vel.clone()
             joint_pos[:, self.joint_ids] = self.joint_pos
-            joint_vel[:, self.joint_ids] = 0.0
+            joint_vel.index_fill_(1, self.joint_ids, 0.0)  # a scalar put by index would copy it from the host
             self.robot.write_joint_state(joint_pos, joint_vel, env_mask)
             self.env.sim.forward(env_mask)
             self.robot.update()
