@@ -142,6 +142,18 @@ def test_adaptive_sampling_favours_the_failed_segment(env):
     assert share > 0.7  # 0.85 expected; a uniform draw gives 1/bins
 
 
+def test_a_fixed_start_frame_starts_every_episode_there():
+    env = gym.make("MotionTracking-G1-v0", num_envs=2, device="cpu",
+                   overrides=["commands.motion.start_frame=0", "commands.motion.pose_range={}",
+                              "commands.motion.joint_position_range=(0.0, 0.0)"]).unwrapped
+    env.reset()
+    cmd = env.command_manager.get_term("motion")
+    assert (cmd.time_steps == 0).all()
+    torch.testing.assert_close(env.scene["robot"].joint_pos, cmd.motion_joint_pos[0].expand(2, -1))
+    with pytest.raises(ValueError, match="start_frame 401; the motion has 401 frames"):
+        gym.make("MotionTracking-G1-v0", num_envs=2, device="cpu", overrides=["commands.motion.start_frame=401"])
+
+
 def test_time_outs_are_not_failures(env):
     cmd = env.command_manager.get_term("motion")
     cmd.bin_failed_count.zero_()

@@ -58,6 +58,8 @@ class MotionCommand(CommandTerm):
         if not 0.0 < cfg.adaptive_alpha <= 1.0:
             raise ValueError(f"adaptive_alpha is the weight of the newest failures, within (0, 1], "
                              f"got {cfg.adaptive_alpha}")
+        if cfg.start_frame is not None and cfg.start_frame < 0:
+            raise ValueError(f"start_frame must be a frame index >= 0 (or None: adaptive sampling), got {cfg.start_frame}")
         if cfg.adaptive_uniform_ratio < 0.0 or cfg.adaptive_kernel_size < 1:
             raise ValueError("adaptive_uniform_ratio must be >= 0 and adaptive_kernel_size >= 1")
         check_range("joint_position_range", cfg.joint_position_range)
@@ -76,6 +78,8 @@ class MotionCommand(CommandTerm):
         check_names_match(motion.body_names, [root_body, *self.body_names], "body", where)
         if cfg.anchor_body_name not in self.body_names:
             raise ValueError(f"anchor_body_name '{cfg.anchor_body_name}' is not a tracked body: {self.body_names}")
+        if cfg.start_frame is not None and cfg.start_frame >= motion.num_frames:
+            raise ValueError(f"{where}: start_frame {cfg.start_frame}; the motion has {motion.num_frames} frames")
         if abs(motion.fps * env.step_dt - 1.0) > 1e-4:
             raise ValueError(f"{where}: {motion.fps} fps; the task's control rate is {1.0 / env.step_dt:g} Hz "
                              f"(convert the motion with --output_fps {1.0 / env.step_dt:g})")
@@ -199,8 +203,11 @@ class MotionCommand(CommandTerm):
         failed = env_mask & self.env.termination_manager.terminated
         self.current_bin_failed.scatter_add_(0, self._frame_bins(), failed.float())
         n = self.env.num_envs
-        bins = torch.multinomial(self.sampling_probabilities(), n, replacement=True)
-        start = ((bins + torch.rand(n, device=self.env.device)) / self.bin_count * (self.num_frames - 1)).long()
+        if self.cfg.start_frame is None:
+            bins = torch.multinomial(self.sampling_probabilities(), n, replacement=True)
+            start = ((bins + torch.rand(n, device=self.env.device)) / self.bin_count * (self.num_frames - 1)).long()
+        else:
+            start = torch.full((n,), self.cfg.start_frame, dtype=torch.long, device=self.env.device)
         self.time_steps.copy_(torch.where(env_mask, start, self.time_steps))
         self._write_reference_state(env_mask)
 
@@ -270,6 +277,9 @@ class MotionCommandCfg:
     """Uniform offsets of the root velocity at a start (x, y, z [m/s]; roll, pitch, yaw [rad/s]; world frame)."""
     joint_position_range: tuple[float, float] = (0.0, 0.0)
     """Uniform offset of every joint angle at a start [rad], then clamped to the soft limits."""
+    start_frame: int | None = None
+    """None: episodes start at frames drawn by adaptive sampling (training). A frame index: every episode starts
+    there, for evaluating or watching the whole motion (`start_frame=0` with an episode as long as the motion)."""
     adaptive_kernel_size: int = 1
     adaptive_lambda: float = 0.8
     adaptive_uniform_ratio: float = 0.1
