@@ -5,10 +5,16 @@
     python scripts/play.py --task Velocity-T1-v0 --sinusoidal       # test actions, no policy
     python scripts/play.py --task Velocity-G1-History-v0 --viewer viser   # browser viewer on http://localhost:8080
     python scripts/play.py --task Debug-G1-v0        # joint sliders and the mirrored twin, in the browser
+    python scripts/play.py --task MotionTracking-G1-v0 --checkpoint model.pt --num_envs 1 --num_steps 400 \
+        --video squat.mp4 --video_reference env.commands.motion.start_frame=0 env.episode_length_s=8.0
 
 Without --checkpoint the task's shipped policy runs if agile has one (agile/data/policy/), else
 sinusoidal test actions. A debug task opens the browser GUI and takes its actions from the sliders.
 Otherwise headless by default. Observation noise and curricula are switched off.
+
+--video renders env 0 into an mp4 (Newton's ray-tracing camera, headless). With --video_reference, for a task
+whose command holds a whole-body reference (motion tracking), each frame also shows an orange kinematic copy of
+the robot at the reference pose, about 1 m to its right: the robot and what it tracks, side by side.
 """
 
 from __future__ import annotations
@@ -81,12 +87,21 @@ def main(argv=None) -> None:
     parser.add_argument("--real_time", action="store_true", help="slow down to the control rate")
     parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
     parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
+    parser.add_argument("--video_size", type=int, nargs=2, default=(640, 480), metavar=("WIDTH", "HEIGHT"),
+                        help="--video's frame size in pixels (single-agent tasks)")
+    parser.add_argument("--video_reference", action="store_true",
+                        help="with --video: draw the command's reference pose (motion tracking) as an orange copy "
+                             "of the robot beside it")
     parser.add_argument("--validate_fallen_states", action="store_true",
                         help="stand-up tasks: show the fallen-state dataset: every env starts fallen, a new state "
                              "every second, zero actions (the joints hold where they lie)")
     cli.add_checkpoint_args(parser)
     args = cli.parse(parser, argv)
+    if args.video_reference and not args.video:
+        cli.fail("--video_reference draws into the --video mp4: give --video PATH.mp4 too")
     if multi_agent.is_multi_agent(args.task):
+        if args.video_reference:
+            cli.fail("--video_reference: a multi-agent task's commands have no reference pose")
         multi_agent.play_main(args, args.num_steps or DEFAULT_HEADLESS_STEPS)
         return
     import agile.tasks
@@ -136,7 +151,14 @@ def main(argv=None) -> None:
     if args.video:
         from utils.recording import VideoRecorder
 
-        video = VideoRecorder(args.video, env)
+        if args.video_reference:
+            from utils.reference_view import reference_command
+
+            try:
+                reference_command(env)
+            except ValueError as err:
+                cli.fail(f"--video_reference: {err}")
+        video = VideoRecorder(args.video, env, *args.video_size, reference=args.video_reference)
     obs, _ = env.reset()
     episodes = falls = step = 0
     reward_sum = torch.zeros((), device=env.device)

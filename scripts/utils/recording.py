@@ -83,19 +83,37 @@ class CameraVideo:
 
 class VideoRecorder(CameraVideo):
     """An mp4 of one env of a ManagerBasedRLEnv (following its policy's robot) or of a MultiAgentEnv (framing all
-    its robots: the camera follows their centre and backs off as they spread), one frame per step."""
+    its robots: the camera follows their centre and backs off as they spread), one frame per step.
 
-    def __init__(self, path: str, env, width: int = 640, height: int = 480, env_index: int = 0):
+    reference=True (a task whose command has a whole-body reference pose, e.g. motion tracking): the frame also
+    shows an orange kinematic copy of the robot at the command's reference pose, about 1 m to the robot's right
+    as the camera sees it (`reference_view.ReferenceScene`), and the camera frames both."""
+
+    def __init__(self, path: str, env, width: int = 640, height: int = 480, env_index: int = 0,
+                 reference: bool = False):
         multi_agent = hasattr(env, "agents")
         step_dt = env.mean_slot_dt_s if multi_agent else env.step_dt
-        super().__init__(path, env.sim.model, round(1.0 / step_dt), width, height, env_index)
+        self.reference = None
+        if reference:
+            from utils.reference_view import ReferenceScene
+
+            self.reference = ReferenceScene(env, env_index)
+        # the reference scene holds only the recorded env's world, as its world 0
+        model, world = (env.sim.model, env_index) if self.reference is None else (self.reference.model, 0)
+        super().__init__(path, model, round(1.0 / step_dt), width, height, world)
         self.env_index = env_index
         self.robots = sorted(env.scene.articulations) if multi_agent else [env.action_manager.policy_entity_name()]
 
     def record(self, env, time_s: float | None = None) -> None:
         import numpy as np
 
-        roots = np.stack([env.scene[r].root_pos_w[self.env_index].detach().cpu().numpy() for r in self.robots])
+        roots = [env.scene[r].root_pos_w[self.env_index].detach().cpu().numpy() for r in self.robots]
+        state = env.sim.state
+        if self.reference is not None:
+            self.reference.update(env)
+            roots.append(self.reference.reference_root_pos_w(env).detach().cpu().numpy())
+            state = self.reference.state
+        roots = np.stack(roots)
         centre = roots.mean(axis=0)
         spread_m = float(np.linalg.norm(roots[:, :2] - centre[:2], axis=1).max())
-        self.write_frame(env.sim.state, centre, distance_scale=1.0 + spread_m / 1.5)
+        self.write_frame(state, centre, distance_scale=1.0 + spread_m / 1.5)

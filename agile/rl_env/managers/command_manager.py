@@ -3,6 +3,8 @@ episode (tracking errors, task success) for training logs and evaluation."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import torch
 
 from agile.rl_env.managers.manager_base import build_class_terms
@@ -35,6 +37,19 @@ class EpisodeMean:
         """New episodes of the masked envs: nothing counted yet (value 0)."""
         for buf in (self.sum, self.steps, self.value):
             buf.masked_fill_(env_mask, 0.0)
+
+
+@dataclass(frozen=True)
+class ReferencePose:
+    """The whole-body pose a command asks of one articulation, per env: what a recorder draws as a kinematic copy
+    of the robot beside it (play.py --video_reference)."""
+
+    asset_name: str
+    """The articulation (scene entity) the pose is for; it must have a free root."""
+    root_pose_w: torch.Tensor
+    """(N, 7) root position [m] (world frame, env origin included) and orientation (x, y, z, w)."""
+    joint_pos: torch.Tensor
+    """(N, J) joint positions [rad], in the articulation's joint order."""
 
 
 class CommandTerm:
@@ -77,6 +92,11 @@ class CommandTerm:
     @property
     def command(self) -> torch.Tensor:
         raise NotImplementedError
+
+    def reference_pose(self) -> ReferencePose | None:
+        """The whole-body pose this command asks for at each env's current frame, for terms that hold one (motion
+        tracking); None for the others. Only recorders read it: it is not part of the MDP."""
+        return None
 
     def _resample(self, env_mask: torch.Tensor) -> None:
         raise NotImplementedError

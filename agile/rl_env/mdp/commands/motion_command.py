@@ -25,6 +25,7 @@ import torch
 
 from agile.motion import check_names_match, load_motion
 from agile.rl_env.managers import CommandTerm
+from agile.rl_env.managers.command_manager import ReferencePose
 from agile.utils.config import check_range, configclass
 from agile.utils.math import quat_conjugate, quat_from_euler_xyz, quat_mul, quat_rotate, yaw_from_quat
 
@@ -158,6 +159,13 @@ class MotionCommand(CommandTerm):
     @property
     def anchor_quat_w(self) -> torch.Tensor:
         return self.motion_body_quat[self.time_steps, self.anchor_index]
+
+    def reference_pose(self) -> ReferencePose:
+        """The reference root pose and joint angles at each env's frame (the frame the policy is now asked to
+        reach: one control step ahead of the state the rewards last judged)."""
+        root_pos_w = self.motion_root_pose[0][self.time_steps] + self.env.env_origins
+        root_pose_w = torch.cat([root_pos_w, self.motion_root_pose[1][self.time_steps]], dim=1)
+        return ReferencePose(self.cfg.asset_name, root_pose_w, self.joint_pos)
 
     # -- the robot's tracked bodies ------------------------------------------------------------------------
 
