@@ -41,22 +41,27 @@ def test_a_nan_action_is_replaced_ended_and_counted(env):
         assert torch.isfinite(reward).all() and all_finite(obs) and not terminated.any()
 
 
-def test_the_wrapper_clamps_far_off_actions_to_the_range_the_task_declares():
+def test_the_env_clamps_far_off_actions_to_the_range_the_task_declares():
     env = gym.make("Velocity-T1-v0", num_envs=4, device="cpu", seed=0, overrides=FLAT).unwrapped
     wrapped = RslRlVecEnvWrapper(env)
     term = env.action_manager.get_term("joint_pos")
+    low, high = env.action_manager.action_bounds()
     # T1: target = action + default joint position, clipped to ±1 rad: the range is the actions reaching ±1 rad
-    torch.testing.assert_close(wrapped.action_low, -1.0 - term.offset)
-    torch.testing.assert_close(wrapped.action_high, 1.0 - term.offset)
+    torch.testing.assert_close(low, -1.0 - term.offset)
+    torch.testing.assert_close(high, 1.0 - term.offset)
     far = torch.full((4, env.action_manager.total_action_dim), 1e6)
     term.process_actions(far)
     unclamped_targets = term.processed_actions.clone()
-    term.process_actions(torch.clamp(far, wrapped.action_low, wrapped.action_high))
+    term.process_actions(torch.clamp(far, low, high))
     torch.testing.assert_close(term.processed_actions, unclamped_targets)  # the clamp changes no joint target
     for sign in (1.0, -1.0, 1.0, -1.0):  # unclamped, the action rate of ±1e6 cost about -6.7e11 per step
         _, reward, _, _ = wrapped.step(sign * far)
         assert reward.abs().max() < 10.0, reward
     assert (env.action_manager.action.abs() <= 1.5).all()  # the action history holds the clamped actions
+    env.step(far)  # the same without the wrapper (eval, play): the env clamps, not the wrapper
+    running = env.episode_length_buf > 0  # an env that fell was reset, its action history zeroed
+    assert running.any()
+    torch.testing.assert_close(env.action_manager.action[running], high[running])
     faulty = far.clone()
     faulty[0, 0], faulty[1, 0] = float("nan"), float("inf")  # not turned into numbers before the env counts them
     wrapped.step(faulty)

@@ -63,6 +63,8 @@ class ActionManager:
         self.invalid_action = torch.zeros(n, dtype=torch.bool, device=env.device)
         """(N,) the last action had a non-finite entry: the env ends that step (terminated, counted as
         `Episode_Termination/invalid_action`)."""
+        self._clamp_bounds: tuple[torch.Tensor, torch.Tensor] | None = None
+        """`action_bounds()`, taken at the first action (after the startup events that may change joint limits)."""
 
     @property
     def active_terms(self) -> list[str]:
@@ -87,8 +89,9 @@ class ActionManager:
 
     def action_bounds(self) -> tuple[torch.Tensor, torch.Tensor]:
         """(low, high), each (num_envs, total_action_dim): per entry, the range the task declares through its
-        terms' clips (±inf where a term declares none). The RSL-RL wrapper clamps the policy's actions to it,
-        which changes no target, only what the action history and the action-rate rewards see."""
+        terms' clips (±inf where a term declares none). `process_action` clamps every action to it: a joint
+        target does not change, but the action history, the action-rate rewards and the observations of the last
+        action see the clamped value, the same whoever steps the env (training, eval, play, a GUI)."""
         lows, highs = [], []
         for term in self.terms.values():
             bounds = term.action_bounds()
@@ -107,9 +110,13 @@ class ActionManager:
         self.prev_action.copy_(self.action)
         # the rule for a NaN or infinite entry: 0 (the term's offset, e.g. the default joint position), so that
         # observations and rewards stay finite; the env is ended and reset by the env step
+        if self._clamp_bounds is None:  # the first call runs eagerly, before any CUDA graph capture
+            self._clamp_bounds = self.action_bounds()
         finite = torch.isfinite(action)
         torch.logical_not(finite.all(dim=-1), out=self.invalid_action)
-        self.action.copy_(torch.where(finite, action, 0.0))
+        # a term's offsets can be far outside its declared range (the frozen locomotion policy's height command):
+        # unclamped, a policy that learned against the clamp feeds its own far-off output back as "last action"
+        self.action.copy_(torch.where(finite, torch.clamp(action, *self._clamp_bounds), 0.0))
         start = 0
         for term in self.terms.values():
             term.process_actions(self.action[:, start:start + term.action_dim])
