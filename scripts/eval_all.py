@@ -40,8 +40,9 @@ def evaluate_task(entry, args) -> dict:
     for key in ("num_envs", "num_episodes", "episode_length_s"):
         if getattr(args, key) is not None:
             settings[key] = getattr(args, key)
+    overrides = list(settings.pop("overrides", []))  # the task's evaluation setting, e.g. a motion from its start
     task_args = argparse.Namespace(task=entry.task, num_envs=settings["num_envs"], device=args.device, seed=args.seed,
-                                   overrides=[], rnn=None)
+                                   overrides=overrides, rnn=None)
     checkpoint = cli.shipped_policy(task_args)  # prepends the shipped policy's training conditions
     contents = cli.read_checkpoint(checkpoint, trust=False)
     env_cfg, agent_cfg, device = cli.load_task(task_args)
@@ -55,6 +56,7 @@ def evaluate_task(entry, args) -> dict:
     finally:
         env.close()
     full_setting = (device != "cpu" and all(settings[k] >= entry.eval_settings[k] for k in settings))
+    settings["overrides"] = overrides
     return {"task": entry.task, "kind": entry.kind, "checkpoint": checkpoint, "device": device, **settings,
             "criteria": entry.criteria, "criteria_checked": full_setting, **metrics}
 

@@ -36,9 +36,13 @@ def test_catalogue_kinds_come_from_the_registry():
     # every task with a policy file of its own (a second ID sharing the file is evaluated under the file's name)
     assert {e.task for e in evaluated_tasks()} == {
         t for t, e in entries.items()
-        if e.kind in ("trainable", "distilled") and e.policy is not None and e.policy.stem == t}
+        if e.kind in ("trainable", "distilled") and e.policy is not None and e.policy.stem.split(".")[0] == t}
     assert "Velocity-Height-G1-v0" not in {e.task for e in evaluated_tasks()}
-    assert {T1, G1} <= {e.task for e in evaluated_tasks()}
+    assert {T1, G1, "MotionTracking-G1-v0"} <= {e.task for e in evaluated_tasks()}
+    assert "Tracking-Flat-G1-v0" not in {e.task for e in evaluated_tasks()}
+    # a task without a velocity command is held to its falls and its own command metrics
+    assert entries["MotionTracking-G1-v0"].criteria == {"fall_rate": 0.05, "motion/body_pos_error_m": 0.05,
+                                                        "motion/joint_pos_error_rad": 0.1}
 
 
 def test_missed_criteria():
@@ -47,6 +51,9 @@ def test_missed_criteria():
     assert missed_criteria({"fall_rate": 0.2, "base_height_error_m": 0.02}, criteria) == ["fall_rate 0.2 > 0.05"]
     assert missed_criteria({"fall_rate": float("nan"), "base_height_error_m": 0.0}, criteria) == ["fall_rate nan > 0.05"]
     assert missed_criteria({"fall_rate": 0.0}, criteria) == ["base_height_error_m not measured (maximum 0.05)"]
+    # command metrics are looked up among eval.py's command_metrics
+    assert missed_criteria({"fall_rate": 0.0, "command_metrics": {"motion/joint_pos_error_rad": 0.2}},
+                           {"motion/joint_pos_error_rad": 0.1}) == ["motion/joint_pos_error_rad 0.2 > 0.1"]
 
 
 # What agile/tasks/locomotion/t1/velocity_env_cfg.py and g1/velocity_history_env_cfg.py set differently (the shared

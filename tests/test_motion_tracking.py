@@ -254,3 +254,36 @@ def test_joint_default_randomisation_moves_defaults_and_action_offsets_together(
     defaults = env.robot.default_joint_pos
     assert (defaults[0].abs() <= 0.01).all() and (defaults[0] != 0).all() and (defaults[1] == 0).all()
     torch.testing.assert_close(action.offset, defaults)
+
+
+# -- shipped policies: one per shipped motion --------------------------------------------------------------------
+
+def test_a_shipped_policy_per_shipped_motion_and_none_for_a_users_file():
+    import agile.tasks
+    from agile.motion.motion_file import SHIPPED_MOTIONS_DIR
+
+    env_cfg = agile.tasks.load_cfgs("MotionTracking-G1-v0")[0]
+    default = agile.tasks.pretrained_policy("MotionTracking-G1-v0")
+    assert default.name == f"MotionTracking-G1-v0.{env_cfg.commands.motion.motion_file}.pt"
+    assert agile.tasks.pretrained_policy("Tracking-Flat-G1-v0") == default  # two IDs, one task
+    for motion in sorted(p.stem for p in SHIPPED_MOTIONS_DIR.glob("*.npz")):
+        env_cfg.commands.motion.motion_file = motion
+        assert agile.tasks.pretrained_policy("MotionTracking-G1-v0", env_cfg).name == \
+            f"MotionTracking-G1-v0.{motion}.pt"
+    env_cfg.commands.motion.motion_file = "/data/my_dance.npz"  # a policy of a shipped motion would not track it
+    assert agile.tasks.pretrained_policy("MotionTracking-G1-v0", env_cfg) is None
+    env_cfg.commands.motion.motion_file = "g1_step_turn.npz"
+    assert agile.tasks.pretrained_policy("MotionTracking-G1-v0", env_cfg) is None
+
+
+def test_eval_without_a_checkpoint_runs_the_policy_of_the_chosen_motion(tmp_path, capsys):
+    import eval as eval_script
+
+    out = tmp_path / "eval.json"
+    eval_script.main(["--task", "MotionTracking-G1-v0", "--device", "cpu", "--num_envs", "2", "--episode_length_s",
+                      "0.2", "--out", str(out), "env.commands.motion.motion_file=g1_step_turn"])
+    import json
+
+    result = json.loads(out.read_text())
+    assert result["checkpoint"].endswith("MotionTracking-G1-v0.g1_step_turn.pt")
+    assert set(result["command_metrics"]) == {"motion/body_pos_error_m", "motion/joint_pos_error_rad"}

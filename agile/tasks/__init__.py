@@ -50,10 +50,33 @@ PRETRAINED_DIR = Path(__file__).resolve().parents[1] / "data" / "policy"
 PRETRAINED_CONDITIONS = PRETRAINED_DIR / "conditions.yaml"
 
 
-def pretrained_policy(task: str) -> Path | None:
+def shipped_policy_variant(task: str, env_cfg=None) -> str | None:
+    """For a task whose shipped policies differ by one config field (its registration's `shipped_policy_per`,
+    e.g. "commands.motion.motion_file": one policy per shipped motion), that field's value in `env_cfg` (the
+    task's default config when None); None for other tasks and for a value that is not a shipped name (a
+    user's own file path: agile ships no policy trained on it)."""
+    field = task_spec(task).kwargs.get("shipped_policy_per")
+    if field is None:
+        return None
+    value = env_cfg if env_cfg is not None else load_cfgs(task)[0]
+    for part in field.split("."):
+        value = getattr(value, part)
+    value = str(value)
+    return value if value and Path(value).name == value and not Path(value).suffix else None
+
+
+def pretrained_policy(task: str, env_cfg=None) -> Path | None:
     """The policy shipped with agile for a task (agile/data/policy/<task>.pt, or the file of the task its
-    registration names as `shipped_policy`: two IDs of one task share one policy), if there is one."""
-    name = task_spec(task).kwargs.get("shipped_policy", task)
+    registration names as `shipped_policy`: two IDs of one task share one policy), if there is one. A task
+    with `shipped_policy_per` ships one per value of that field: <task>.<value>.pt (see
+    `shipped_policy_variant`; `env_cfg` is the config after the user's overrides)."""
+    kwargs = task_spec(task).kwargs
+    name = kwargs.get("shipped_policy", task)
+    if "shipped_policy_per" in kwargs:
+        variant = shipped_policy_variant(task, env_cfg)
+        if variant is None:
+            return None
+        name = f"{name}.{variant}"
     path = PRETRAINED_DIR / f"{name}.pt"
     return path if path.is_file() else None
 

@@ -28,6 +28,9 @@ DEFAULT_CRITERIA = {"fall_rate": 0.05, "lin_vel_error_mps": 0.25, "ang_vel_error
 0.06-0.14 m/s and 0.15 rad/s on an H100 (docs/eval_*_h100.json): about twice that is a regression."""
 HEIGHT_CRITERIA = {**DEFAULT_CRITERIA, "base_height_error_m": 0.05}
 """Tasks with a base-height command also bound the height error (commanded minus measured above the terrain)."""
+NO_VELOCITY_CRITERIA = {"fall_rate": 0.05}
+"""Tasks without a velocity command (motion tracking, pick-and-place) bound the falls; their registration adds
+its own command metrics (`eval_criteria`, names as in eval.py's `command_metrics`)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,10 +71,12 @@ def task_entry(task: str) -> TaskEntry:
     """The catalogue entry of one registered task (KeyError naming the registered tasks for an unknown one)."""
     kwargs = task_spec(task).kwargs
     kind = catalogue_kind(task)
-    height = False
+    height, velocity = False, True
     if kind in EVALUATED_KINDS:  # multi-agent configs have no single base_velocity command
-        height = has_height_command(load_cfgs(task)[0])
-    criteria = dict(HEIGHT_CRITERIA if height else DEFAULT_CRITERIA)
+        env_cfg = load_cfgs(task)[0]
+        height = has_height_command(env_cfg)
+        velocity = getattr(getattr(env_cfg, "commands", None), "base_velocity", None) is not None
+    criteria = dict(HEIGHT_CRITERIA if height else DEFAULT_CRITERIA if velocity else NO_VELOCITY_CRITERIA)
     criteria.update(kwargs.get("eval_criteria", {}))
     settings = {**DEFAULT_EVAL_SETTINGS, **kwargs.get("eval_settings", {})}
     return TaskEntry(task=task, kind=kind, policy=pretrained_policy(task), has_height_command=height,
@@ -85,8 +90,10 @@ def catalogue() -> list[TaskEntry]:
 
 def evaluated_tasks() -> list[TaskEntry]:
     """The tasks eval_all.py evaluates: trainable or distilled, with a shipped policy; a second ID of one task
-    (sharing its policy file, e.g. Velocity-Height-G1-v0 = -Teacher-v0) is evaluated once, under the file's name."""
-    return [e for e in catalogue() if e.kind in EVALUATED_KINDS and e.policy is not None and e.policy.stem == e.task]
+    (sharing its policy file, e.g. Velocity-Height-G1-v0 = -Teacher-v0) is evaluated once, under the file's name
+    (a policy per motion, <task>.<motion>.pt: the task's default motion)."""
+    return [e for e in catalogue()
+            if e.kind in EVALUATED_KINDS and e.policy is not None and e.policy.stem.split(".")[0] == e.task]
 
 
 def missed_criteria(metrics: dict, criteria: dict) -> list[str]:
@@ -94,7 +101,7 @@ def missed_criteria(metrics: dict, criteria: dict) -> list[str]:
     too (an eval that did not measure it cannot pass it)."""
     missed = []
     for name, maximum in criteria.items():
-        value = metrics.get(name)
+        value = metrics.get(name, metrics.get("command_metrics", {}).get(name))
         if value is None:
             missed.append(f"{name} not measured (maximum {maximum})")
         elif not value <= maximum:  # NaN misses

@@ -166,8 +166,17 @@ def shipped_policy(args) -> str | None:
     (which still win), so that it runs in the env it learned in."""
     import agile.tasks
 
-    path = agile.tasks.pretrained_policy(args.task)
+    env_cfg = None
+    per_field = agile.tasks.task_spec(args.task).kwargs.get("shipped_policy_per")
+    if per_field is not None:  # one shipped policy per value of a config field (per motion): read it after overrides
+        env_cfg = load_task(args)[0]
+    path = agile.tasks.pretrained_policy(args.task, env_cfg)
     if path is None:
+        if per_field is not None:
+            name = agile.tasks.task_spec(args.task).kwargs.get("shipped_policy", args.task)
+            shipped = sorted(p.stem for p in agile.tasks.PRETRAINED_DIR.glob(f"{name}.*.pt"))
+            print(f"[agile] agile ships {args.task} policies for {per_field} = one of "
+                  f"{[s.split('.', 1)[1] for s in shipped]} only; give --checkpoint for another")
         return None
     trained_on, overrides = agile.tasks.pretrained_policy_conditions(args.task)
     if overrides:
