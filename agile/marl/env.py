@@ -216,6 +216,7 @@ class MultiAgentEnv(gym.Env):
         truncated = agent.termination_manager.time_outs & was_alive & ~terminated
         reward = agent.reward_manager.compute(agent.step_dt, active=was_alive & ~self.sim_unstable)
         agent.command_manager.update_metrics()
+        agent.metrics_manager.update_metrics()
         mask = terminated.unsqueeze(-1)
         for robot_name in agent.robot_names:
             robot = self.scene[robot_name]
@@ -255,6 +256,7 @@ class MultiAgentEnv(gym.Env):
             for manager in (agent.reward_manager, agent.termination_manager):
                 log.update(manager.reset(env_mask))
             log.update(agent.command_manager.finish_episodes(env_mask))
+            log.update(agent.metrics_manager.finish_episodes(env_mask))
             agent.log.write(log, hold_unless=any_reset)
 
         self.sim.reset_worlds(env_mask)
@@ -267,8 +269,8 @@ class MultiAgentEnv(gym.Env):
 
         self.event_manager.reset(env_mask)
         for agent in self.agents.values():
-            for manager in (agent.action_manager, agent.command_manager, agent.observation_manager,
-                            agent.event_manager):
+            for manager in (agent.action_manager, agent.command_manager, agent.metrics_manager,
+                            agent.observation_manager, agent.event_manager):
                 manager.reset(env_mask)
             agent.episode_length_buf.masked_fill_(env_mask, 0)
             agent.alive |= env_mask

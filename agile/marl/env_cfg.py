@@ -27,6 +27,8 @@ class AgentCfg:
     events: object = None
     """Events of the agent's robots (its randomisation, resets, pushes), with its scene names."""
     curriculum: object = None
+    metrics: object = None
+    """The agent's episode metrics (`MetricTerm` fields), logged as Metrics/<name> in its log."""
 
 
 @configclass

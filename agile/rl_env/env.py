@@ -10,8 +10,8 @@ import warp as wp
 from tensordict import TensorDict
 
 from agile.rl_env.captured_step import CapturedStep
-from agile.rl_env.managers import (ActionManager, CommandManager, CurriculumManager, EventManager, ObservationManager,
-                                   RewardManager, TerminationManager)
+from agile.rl_env.managers import (ActionManager, CommandManager, CurriculumManager, EventManager, MetricsManager,
+                                   ObservationManager, RewardManager, TerminationManager, merge_episode_metrics)
 from agile.sim import SceneCfg, SimCfg, Simulation
 from agile.utils.config import ConfigError, apply_overrides, configclass, load_entry_point
 
@@ -36,6 +36,8 @@ class ManagerBasedRLEnvCfg:
     terminations: object = None
     events: object = None
     curriculum: object = None
+    metrics: object = None
+    """Episode metrics of the task (`MetricTerm` fields: success, final height, ...) for logs and evaluation."""
     capture_step: bool = True
     """On CUDA, record the whole env step (term math, resets and physics) once as a CUDA graph and replay it:
     no Python runs per step. Terms must then avoid host syncs and host-to-device copies."""
@@ -131,8 +133,13 @@ def build_managers(env, cfg) -> None:
     env.termination_manager = TerminationManager(cfg.terminations, env)
     env.reward_manager = RewardManager(cfg.rewards, env)
     env.curriculum_manager = CurriculumManager(cfg.curriculum, env)
+    # after the terminations: an episode-end metric reads how the episode ended
+    env.metrics_manager = MetricsManager(getattr(cfg, "metrics", None), env)
     if not env.termination_manager.active_terms:
         raise ConfigError(f"task '{env.task_name}': no termination terms (at least a time_out is needed)")
+    env.last_episode_metrics = merge_episode_metrics(env)
+    """(N,) each env's most recently ended episode's metrics: the command terms' ("<term>/<name>") and the metric
+    terms' ("<name>"), as they stood at the end; written in place by each step (what eval.py reads)."""
 
 
 class ManagerBasedRLEnv(gym.Env):
@@ -239,6 +246,7 @@ class ManagerBasedRLEnv(gym.Env):
         time_outs = self.termination_manager.time_outs & ~invalid
         reward = self.reward_manager.compute(self.step_dt, active=~self.sim_unstable)
         self.command_manager.update_metrics()  # of the state the rewards judged, before resets replace it
+        self.metrics_manager.update_metrics()
 
         self._log.write(self.curriculum_manager.compute(self.reset_buf))
         self._reset_envs(self.reset_buf)
@@ -304,6 +312,7 @@ class ManagerBasedRLEnv(gym.Env):
         for manager in (self.reward_manager, self.termination_manager):
             log.update(manager.reset(env_mask))
         log.update(self.command_manager.finish_episodes(env_mask))  # the final state is still there
+        log.update(self.metrics_manager.finish_episodes(env_mask))
         # logs describe finished episodes: keep the last values while no env finishes
         self._log.write(log, hold_unless=any_reset)
 
@@ -313,6 +322,7 @@ class ManagerBasedRLEnv(gym.Env):
         self.sim.forward(env_mask)
         self.scene.update()
 
-        for manager in (self.action_manager, self.command_manager, self.observation_manager, self.event_manager):
+        for manager in (self.action_manager, self.command_manager, self.metrics_manager, self.observation_manager,
+                        self.event_manager):
             manager.reset(env_mask)
         self.episode_length_buf.masked_fill_(env_mask, 0)

@@ -112,6 +112,7 @@ def resolved_mdp(env) -> dict:
         "events": {name: _term(env, t, mode=t.mode, interval_range_s=to_dict(t.interval_range_s))
                    for name, t in env.event_manager.term_cfgs.items()},
         "curriculum": {name: _term(env, t) for name, t in env.curriculum_manager.term_cfgs.items()},
+        "metrics": {name: _term(env, t, when=t.when) for name, t in env.metrics_manager.term_cfgs.items()},
         "actuators": {name: _actuators(a) for name, a in scene.articulations.items()},
     }
 

@@ -93,6 +93,25 @@ class DoneTerm:
     """Time-outs truncate the episode (the value bootstraps); all other terms are failures."""
 
 
+METRIC_WHEN = ("step", "episode_end")
+"""When a metric term is evaluated (`MetricTerm.when`)."""
+
+
+@configclass
+class MetricTerm:
+    """An episode metric of the task (success, final height, ...) for training logs and evaluation, not tied to a
+    command. `func(env, **params)` returns one value per env, (N,) float or bool; units in the term's name."""
+
+    func: Callable | None = None
+    params: dict[str, Any] = field(default_factory=dict)
+    when: str = "step"
+    """"step": evaluated after every env step (the state the rewards judge, an episode's last one included, its
+    reset state not); the metric is the mean over the episode's steps, non-finite values not counted.
+    "episode_end": evaluated once, when the episode ends, before the world is reset (the final state, and the
+    termination manager's `time_outs`, `terminated` and `term_dones` of that step); a non-finite value (a world
+    that blew up, counted by Episode_Termination/sim_unstable) counts 0."""
+
+
 @configclass
 class EventTerm:
     func: Callable | None = None

@@ -16,3 +16,4 @@ from agile.rl_env.mdp.terminations_height_tracking import *  # noqa: F401,F403
 from agile.rl_env.mdp.curriculums_height_tracking import *  # noqa: F401,F403
 from agile.rl_env.mdp.motion_tracking import *  # noqa: F401,F403
 from agile.rl_env.mdp.pick_place import *  # noqa: F401,F403
+from agile.rl_env.mdp.metrics import *  # noqa: F401,F403
