@@ -10,9 +10,10 @@ Each env runs `num_episodes` episodes of `episode_length_s` (pushes off unless -
 drawn by the task's command term (uniform over its ranges, a share standing), or fixed with --command.
 Without --checkpoint the policy shipped with agile for the task is evaluated. Prints and writes JSON.
 Velocity errors are measured for tasks with a velocity command, the height error (commanded minus measured above
-the terrain) for those with a base-height command; every task reports its command terms' episode metrics
-(`CommandTerm.metrics`: the motion-tracking errors, pick-and-place success) as means over the ended episodes
-under "command_metrics".
+the terrain) for those with a base-height command; every task reports its episode metrics as means over the ended
+episodes under "episode_metrics": its command terms' (`CommandTerm.metrics`, "<term>/<name>": the motion-tracking
+errors, pick-and-place success) and its metric terms' (the env cfg's `metrics`, "<name>": the stand-up success).
+JSON files written before these were merged have the command terms' under "command_metrics".
 """
 
 from __future__ import annotations
@@ -81,9 +82,9 @@ class ErrorByCommand:
 
 def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = None, recorders=()) -> dict:
     """Sums per env over `num_episodes` episodes of every env: (N,) tensors of tracking errors over the steps
-    alive (with a velocity command), steps alive, episodes ended, falls, ended episodes' lengths and the command
-    metrics of the ended episodes ("command_metric/<term>/<name>"); each reward term's total; and the errors by
-    commanded speed (and height)."""
+    alive (with a velocity command), steps alive, episodes ended, falls, ended episodes' lengths and the episode
+    metrics of the ended episodes ("episode_metric/<key>", keys of `env.last_episode_metrics`); each reward term's
+    total; and the errors by commanded speed (and height)."""
     import torch
 
     from agile.rl_env.mdp import base_height_above_ground
@@ -99,8 +100,8 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
     terminations = env.termination_manager
     failure_terms = [name for name, cfg in terminations.term_cfgs.items() if not cfg.time_out]
     sums.update({f"ended_by/{name}": zeros() for name in failure_terms})
-    last_metrics = env.command_manager.last_episode_metrics  # written in place by each step for the ended envs
-    sums.update({f"command_metric/{key}": zeros() for key in last_metrics})
+    last_metrics = env.last_episode_metrics  # commands' and metric terms', written in place for the ended envs
+    sums.update({f"episode_metric/{key}": zeros() for key in last_metrics})
     episode_steps = zeros()
     term_sums = {name: torch.zeros((), device=env.device) for name in env.reward_manager.weights}
     robot = env.scene[env.action_manager.policy_entity_name()]  # the robot the policy drives
@@ -136,7 +137,7 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
             for name in failure_terms:  # which failure ended the episode (several can at once)
                 sums[f"ended_by/{name}"] += terminations.term_dones[name].float()
             for key, value in last_metrics.items():
-                sums[f"command_metric/{key}"] += value * done
+                sums[f"episode_metric/{key}"] += value * done
     by_command = {"lin_vel_error_mps_by_speed_mps": by_speed.rows()} if command_name is not None else {}
     if height_sensor is not None:
         by_command["base_height_error_m_by_height_m"] = by_height.rows()
@@ -158,13 +159,13 @@ def summarise(sums: dict, step_dt: float, mask=None) -> dict:
     # "falls" are the episodes a failure term ended; by term (an episode two terms ended counts for both)
     metrics["falls_by_term"] = {key.split("/", 1)[1]: int(value) for key, value in total.items()
                                 if key.startswith("ended_by/")}
-    metrics["command_metrics"] = {key.split("/", 1)[1]: value / episodes for key, value in total.items()
-                                  if key.startswith("command_metric/")}
+    metrics["episode_metrics"] = {key.split("/", 1)[1]: value / episodes for key, value in total.items()
+                                  if key.startswith("episode_metric/")}
     return metrics
 
 
 def evaluate(env, policy, num_episodes: int, command_name: str | None = None, recorders=()) -> dict:
-    """Fall rate, episode length and the command metrics over every env's `num_episodes` episodes; the velocity
+    """Fall rate, episode length and the episode metrics over every env's `num_episodes` episodes; the velocity
     errors (over the steps alive) for a velocity command, the base-height error where it has a height."""
     result = evaluate_per_env(env, policy, num_episodes, command_name, recorders)
     metrics = {"num_envs": env.num_envs, **summarise(result["sums"], env.step_dt)}

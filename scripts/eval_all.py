@@ -95,10 +95,10 @@ def report_markdown(results: list[dict], plots: list[str]) -> str:
     for r in results:
         terms = ", ".join(f"{k} {v:+.4f}" for k, v in r["reward_per_step"].items())
         lines.append(f"- {r['task']}: {terms}")
-    with_metrics = [r for r in results if r.get("command_metrics")]
+    with_metrics = [r for r in results if r.get("episode_metrics")]
     if with_metrics:
-        lines += ["", "Command metrics (means over the ended episodes):", ""]
-        lines += [f"- {r['task']}: " + ", ".join(f"{k} {v:.4g}" for k, v in r["command_metrics"].items())
+        lines += ["", "Episode metrics (means over the ended episodes):", ""]
+        lines += [f"- {r['task']}: " + ", ".join(f"{k} {v:.4g}" for k, v in r["episode_metrics"].items())
                   for r in with_metrics]
     if plots:
         lines += [""] + [f"![{os.path.splitext(p)[0]}]({p})" for p in plots]

@@ -51,8 +51,13 @@ def test_missed_criteria():
     assert missed_criteria({"fall_rate": 0.2, "base_height_error_m": 0.02}, criteria) == ["fall_rate 0.2 > 0.05"]
     assert missed_criteria({"fall_rate": float("nan"), "base_height_error_m": 0.0}, criteria) == ["fall_rate nan > 0.05"]
     assert missed_criteria({"fall_rate": 0.0}, criteria) == ["base_height_error_m not measured (maximum 0.05)"]
-    # command metrics are looked up among eval.py's command_metrics
-    assert missed_criteria({"fall_rate": 0.0, "command_metrics": {"motion/joint_pos_error_rad": 0.2}},
+    # episode metrics (a command's "<term>/<name>", a metric term's "<name>") are looked up among eval.py's
+    # episode_metrics; in a JSON written before the metric terms, among its command_metrics
+    assert missed_criteria({"fall_rate": 0.0, "episode_metrics": {"motion/joint_pos_error_rad": 0.2}},
+                           {"motion/joint_pos_error_rad": 0.1}) == ["motion/joint_pos_error_rad 0.2 > 0.1"]
+    assert missed_criteria({"episode_metrics": {"not_standing_at_time_out": 0.05}},
+                           {"not_standing_at_time_out": 0.1}) == []
+    assert missed_criteria({"command_metrics": {"motion/joint_pos_error_rad": 0.2}},
                            {"motion/joint_pos_error_rad": 0.1}) == ["motion/joint_pos_error_rad 0.2 > 0.1"]
 
 

@@ -172,9 +172,9 @@ def test_motion_metrics_reach_the_training_log(motion_env):
 def test_eval_reports_motion_tracking_errors(motion_env, tmp_path):
     checkpoint = checkpoint_of_untrained_policy(motion_env, "MotionTracking-G1-v0", tmp_path / "model.pt")
     metrics = run_eval("MotionTracking-G1-v0", checkpoint, tmp_path / "eval.json")
-    assert set(metrics["command_metrics"]) == {"motion/body_pos_error_m", "motion/joint_pos_error_rad"}
+    assert set(metrics["episode_metrics"]) == {"motion/body_pos_error_m", "motion/joint_pos_error_rad"}
     assert metrics["episodes"] >= 2 and "fall_rate" in metrics
-    assert all(0.0 < v < 1.0 for v in metrics["command_metrics"].values()), metrics["command_metrics"]
+    assert all(0.0 < v < 1.0 for v in metrics["episode_metrics"].values()), metrics["episode_metrics"]
     assert "lin_vel_error_mps" not in metrics and metrics["error_by_command"] == {}  # no velocity command
 
 
@@ -231,7 +231,7 @@ def test_pick_place_lift_and_goal_metrics_on_scripted_object_poses(pick_place_en
 def test_eval_reports_pick_place_success(pick_place_env, tmp_path):
     checkpoint = checkpoint_of_untrained_policy(pick_place_env, "PickPlace-G1-v0", tmp_path / "model.pt")
     metrics = run_eval("PickPlace-G1-v0", checkpoint, tmp_path / "eval.json")
-    found = metrics["command_metrics"]
+    found = metrics["episode_metrics"]
     assert set(found) == {"reference/joint_pos_error_rad", "reference/object_lifted",
                           "reference/object_goal_distance_m", "reference/object_at_goal"}
     assert 0.0 < found["reference/joint_pos_error_rad"] < 1.0

@@ -286,4 +286,4 @@ def test_eval_without_a_checkpoint_runs_the_policy_of_the_chosen_motion(tmp_path
 
     result = json.loads(out.read_text())
     assert result["checkpoint"].endswith("MotionTracking-G1-v0.g1_step_turn.pt")
-    assert set(result["command_metrics"]) == {"motion/body_pos_error_m", "motion/joint_pos_error_rad"}
+    assert set(result["episode_metrics"]) == {"motion/body_pos_error_m", "motion/joint_pos_error_rad"}

@@ -29,8 +29,11 @@ DEFAULT_CRITERIA = {"fall_rate": 0.05, "lin_vel_error_mps": 0.25, "ang_vel_error
 HEIGHT_CRITERIA = {**DEFAULT_CRITERIA, "base_height_error_m": 0.05}
 """Tasks with a base-height command also bound the height error (commanded minus measured above the terrain)."""
 NO_VELOCITY_CRITERIA = {"fall_rate": 0.05}
-"""Tasks without a velocity command (motion tracking, pick-and-place) bound the falls; their registration adds
-its own command metrics (`eval_criteria`, names as in eval.py's `command_metrics`)."""
+"""Tasks without a velocity command (motion tracking, pick-and-place, stand-up) bound the falls; their registration
+adds its own episode metrics (`eval_criteria`, names as in eval.py's `episode_metrics`: "<term>/<name>" of a
+command's, "<name>" of a metric term's)."""
+LEGACY_EPISODE_METRICS_KEY = "command_metrics"
+"""Where eval JSON files written before the metric terms (docs/*/eval_*.json) hold the command terms' metrics."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -97,11 +100,13 @@ def evaluated_tasks() -> list[TaskEntry]:
 
 
 def missed_criteria(metrics: dict, criteria: dict) -> list[str]:
-    """'metric value > maximum' for each criterion the metrics miss; a criterion whose metric is absent is a miss
-    too (an eval that did not measure it cannot pass it)."""
+    """'metric value > maximum' for each criterion the metrics miss, looked up among eval.py's top-level metrics,
+    then its `episode_metrics`; a criterion whose metric is absent is a miss too (an eval that did not measure it
+    cannot pass it)."""
+    episode_metrics = metrics.get("episode_metrics", metrics.get(LEGACY_EPISODE_METRICS_KEY, {}))
     missed = []
     for name, maximum in criteria.items():
-        value = metrics.get(name, metrics.get("command_metrics", {}).get(name))
+        value = metrics.get(name, episode_metrics.get(name))
         if value is None:
             missed.append(f"{name} not measured (maximum {maximum})")
         elif not value <= maximum:  # NaN misses
