@@ -3,14 +3,15 @@
 AGILE `T1StandUpEnvCfg` (FEB26, agile_tasks.md 2.4). Episodes start from a dataset of fallen states collected
 before learning on every terrain row (the registration's pre-learn hook, `agile.rl_env.fallen_states`), a tenth
 standing; a lift force on the head helps early on (from 3 s into an episode, towards 0.65 m) and is removed by a
-curriculum as the robots learn to stand by themselves. No command: the task is to get up and stay up.
+curriculum as the robots learn to stand by themselves. No command: the task is to get up and stay up; its metric
+terms report the share of episodes that end by time-out standing (eval.py, docs/stand_up.md "Evaluate").
 """
 
 from __future__ import annotations
 
 from agile.assets.booster_t1 import ARM_JOINTS, HEAD_JOINTS, WAIST_JOINTS, t1_robot_cfg
 from agile.rl_env import ManagerBasedRLEnvCfg, mdp
-from agile.rl_env.managers import CurrTerm, DoneTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg
+from agile.rl_env.managers import CurrTerm, DoneTerm, MetricTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg
 from agile.rl_env.managers import UniformNoiseCfg as Unoise
 from agile.sim.terrain import STAND_UP_ROUGH_TERRAIN_CFG
 from agile.tasks.locomotion.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, velocity_scene_cfg,
@@ -22,6 +23,9 @@ STANDING_HEIGHT_M = 0.65
 """T1's trunk height standing (the lift's target and the height rewards')."""
 STANDING_THRESHOLD_M = 0.8 * STANDING_HEIGHT_M
 """Above this the robot counts as standing for the standing-only terms (AGILE: 0.8 x 0.65 m)."""
+STOOD_UP_MIN_HEIGHT_M = 0.55
+"""Above this at the time-out an episode counts as a stand-up (issue 17's success figure; the lift curriculum's
+standing threshold)."""
 FOOT_BODIES = ["left_foot_link", "right_foot_link"]
 FEET = SceneEntityCfg("robot", body_names=FOOT_BODIES, preserve_order=True)
 UPPER_BODY = SceneEntityCfg("robot", joint_names=[ARM_JOINTS, HEAD_JOINTS, WAIST_JOINTS])
@@ -164,6 +168,20 @@ class CurriculumCfg:
                                                  use_log_space=False)
 
 
+def _at_end(func, **params) -> MetricTerm:
+    """An episode-end metric of the trunk's height above the terrain, measured as the height rewards measure it."""
+    return MetricTerm(func=func, when="episode_end", params={"sensor_name": BASE_HEIGHT_SENSOR, **params})
+
+
+@configclass
+class MetricsCfg:
+    # the success (1 where the episode timed out with the trunk above 0.55 m) and its complement, which the
+    # registration's eval criterion bounds (criteria are maxima)
+    standing_at_time_out = _at_end(mdp.standing_at_time_out, min_height_m=STOOD_UP_MIN_HEIGHT_M)
+    not_standing_at_time_out = _at_end(mdp.not_standing_at_time_out, min_height_m=STOOD_UP_MIN_HEIGHT_M)
+    base_height_at_end_m = _at_end(mdp.base_height_at_end)
+
+
 @configclass
 class T1StandUpEnvCfg(ManagerBasedRLEnvCfg):
     num_envs = 4096
@@ -179,3 +197,4 @@ class T1StandUpEnvCfg(ManagerBasedRLEnvCfg):
     terminations = TerminationsCfg()
     events = t1_stand_up_events_cfg()
     curriculum = CurriculumCfg()
+    metrics = MetricsCfg()
