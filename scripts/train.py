@@ -105,9 +105,16 @@ def check_rank_weights(runner, rank) -> None:
 
 def initial_actor_checkpoint(checkpoint: dict, path: str, log_dir: str, action_std: float | None) -> dict:
     """The --init_policy checkpoint (contents of `path`) copied into the run's folder as init_policy.pt (where the
-    run started stays with it), with the actor's action noise set to `action_std` when given."""
+    run started stays with it), with the actor's action noise set to `action_std` when given. A distilled
+    student's checkpoint (rsl-rl's "student_state_dict") gives its student as the actor: fine-tuning by PPO."""
     import torch
 
+    if "actor_state_dict" not in checkpoint:
+        if "student_state_dict" not in checkpoint:
+            cli.fail(f"--init_policy {path}: no actor_state_dict or student_state_dict in it (it holds "
+                     f"{sorted(checkpoint)})")
+        checkpoint = {"actor_state_dict": checkpoint["student_state_dict"], "iter": checkpoint.get("iter", 0),
+                      "infos": checkpoint.get("infos")}
     if action_std is not None:
         actor = checkpoint["actor_state_dict"]
         if "distribution.std_param" in actor:
@@ -121,6 +128,22 @@ def initial_actor_checkpoint(checkpoint: dict, path: str, log_dir: str, action_s
     if log_dir is not None:
         torch.save(checkpoint, os.path.join(log_dir, "init_policy.pt"))
     return checkpoint
+
+
+def shipped_init_policy(task: str, agent_cfg) -> str | None:
+    """A fine-tuning task's default --init_policy: the shipped policy of its `init_policy_task` (None for the
+    other tasks)."""
+    import agile.tasks
+
+    source_task = getattr(agent_cfg, "init_policy_task", None)
+    if not source_task:
+        return None
+    path = agile.tasks.pretrained_policy(source_task)
+    if path is None:
+        cli.fail(f"{task} fine-tunes the policy of {source_task}, and agile ships none: train {source_task} first "
+                 f"and give --init_policy PATH (its model_<it>.pt)")
+    print(f"[agile] {task} fine-tunes {source_task}: the actor starts from its shipped policy {path}")
+    return str(path)
 
 
 def distillation_teacher(args, agent_cfg, resuming: bool) -> str | None:
@@ -218,6 +241,8 @@ def main(argv=None) -> None:
         cli.fail("--init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
     # read before the env is built: a file that is missing or would run code is refused at once
     resume_contents = cli.read_checkpoint(resume_path, args.trust_checkpoint) if resume_path else None
+    if args.init_policy is None and resume_path is None:
+        args.init_policy = shipped_init_policy(args.task, agent_cfg)
     if args.init_policy and not os.path.isfile(args.init_policy):
         cli.fail(f"--init_policy file not found: {args.init_policy}")
     if args.init_action_std is not None and (not args.init_policy or not args.init_action_std > 0):

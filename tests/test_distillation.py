@@ -77,6 +77,42 @@ def test_one_distillation_iteration_and_its_export(student, teacher_run, tmp_pat
     env.close()
 
 
+FINETUNES = {"Velocity-Height-G1-Student-Recurrent-Finetune-v0": "Velocity-Height-G1-Student-Recurrent-v0",
+             "Velocity-Height-G1-Student-History-Finetune-v0": "Velocity-Height-G1-Student-History-v0"}
+
+
+@pytest.mark.parametrize("task", sorted(FINETUNES))
+def test_ppo_finetuning_starts_from_the_shipped_student_and_exports(task, tmp_path):
+    code, out = run("scripts/train.py", "--task", task, "--log_root", str(tmp_path), *SHORT)
+    assert code == 0, out
+    assert f"fine-tunes {FINETUNES[task]}" in out and "Mean value loss" in out, out  # PPO, not distillation
+    run_dir = next(next(tmp_path.iterdir()).iterdir())
+    student = torch.load(ROOT / "agile" / "data" / "policy" / f"{FINETUNES[task]}.pt",
+                         weights_only=True)["student_state_dict"]
+    started = torch.load(run_dir / "init_policy.pt", weights_only=True)["actor_state_dict"]
+    assert started.keys() == student.keys()
+    for key, value in student.items():
+        torch.testing.assert_close(started[key], value, rtol=0.0, atol=0.0)
+    trained = torch.load(run_dir / "model_0.pt", weights_only=True)
+    assert set(trained) >= {"actor_state_dict", "critic_state_dict"}
+    # the actor restored into the runner is the student (std 0.1; a fresh actor starts at 1.0), moved by one update
+    torch.testing.assert_close(trained["actor_state_dict"]["distribution.std_param"], student["distribution.std_param"],
+                               rtol=0.0, atol=0.02)
+    torch.testing.assert_close(trained["actor_state_dict"]["mlp.0.weight"], student["mlp.0.weight"], rtol=0.0,
+                               atol=0.05)
+    descriptor = yaml.safe_load((run_dir / "exported" / "io_descriptor.yaml").read_text())
+    assert descriptor["observation_groups"] == ["policy"]
+    assert descriptor["policy"]["recurrent"] == ("Recurrent" in task)
+
+
+def test_finetuning_refuses_a_checkpoint_without_a_policy(tmp_path):
+    bad = tmp_path / "critic_only.pt"
+    torch.save({"critic_state_dict": {}, "iter": 3}, bad)
+    code, out = run("scripts/train.py", "--task", "Velocity-Height-G1-Student-History-Finetune-v0", "--init_policy",
+                    str(bad), "--log_root", str(tmp_path), *SHORT)
+    assert code != 0 and "no actor_state_dict or student_state_dict in it" in out, out
+
+
 def test_a_student_without_a_teacher_is_refused_in_one_line(tmp_path):
     code, out = run("scripts/train.py", "--task", "Velocity-Height-G1-Student-History-v0", "--log_root",
                     str(tmp_path), "--teacher", str(tmp_path / "missing.pt"), *SHORT)

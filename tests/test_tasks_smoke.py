@@ -14,10 +14,13 @@ SMOKE_TASKS += ["MotionTracking-G1-v0"]
 SMOKE_TASKS += ["PickPlace-G1-v0", "PickPlace-G1-Debug-v0"]
 MULTI_AGENT_SMOKE_TASKS = ["MultiRate-G1-T1-Velocity-v0"]
 DISTILLED = "distilled from a teacher: tests/test_distillation.py builds, steps, trains and exports it"
+FINETUNED = "PPO on a distilled student: tests/test_distillation.py trains it from the shipped student and exports it"
 SKIPPED_TASKS: dict[str, str] = {  # task ID -> reason
     "Velocity-Height-G1-v0": "the same configs as Velocity-Height-G1-Teacher-v0 (two IDs, as AGILE registers them)",
     "Velocity-Height-G1-Student-Recurrent-v0": DISTILLED,
     "Velocity-Height-G1-Student-History-v0": DISTILLED,
+    "Velocity-Height-G1-Student-Recurrent-Finetune-v0": FINETUNED,
+    "Velocity-Height-G1-Student-History-Finetune-v0": FINETUNED,
     "Tracking-Flat-G1-v0": "the same configs as MotionTracking-G1-v0 (AGILE v1.3 renamed it; both IDs registered)",
     "G1-PickPlace-Tracking-v0": "the same configs as PickPlace-G1-v0 (AGILE v1.3 renamed it; both IDs registered)",
     "StandUp-T1-v0": "needs its pre-learn step: tests/test_stand_up.py collects a tiny dataset, steps and trains it",

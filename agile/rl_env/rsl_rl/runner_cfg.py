@@ -83,6 +83,10 @@ class PpoRunnerCfg(RunnerCommonCfg):
     algorithm: PpoAlgorithmCfg = field(default_factory=PpoAlgorithmCfg)
     actor: MlpModelCfg = field(default_factory=lambda: MlpModelCfg(distribution_cfg=DistributionCfg()))
     critic: MlpModelCfg = field(default_factory=MlpModelCfg)
+    init_policy_task: str | None = None
+    """Fine-tuning: the registered task whose shipped policy the actor starts from when `train.py` is given no
+    --init_policy (a distilled student's weights included: its student becomes the actor); the critic is fresh.
+    None: the actor starts at random."""
 
 
 def make_recurrent(cfg: PpoRunnerCfg, rnn_type: str = "lstm", rnn_hidden_dim: int = 256,
@@ -153,7 +157,7 @@ def policy_state_key(cfg: RunnerCfg) -> str:
     return f"{policy_obs_set(cfg)}_state_dict"
 
 
-RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "clip_actions", "teacher_task")
+RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "clip_actions", "teacher_task", "init_policy_task")
 
 
 def to_rsl_rl_dict(cfg: RunnerCfg) -> dict:

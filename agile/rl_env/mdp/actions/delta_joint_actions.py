@@ -50,10 +50,21 @@ class DeltaJointPositionAction(ActionTerm):
     def action_dim(self) -> int:
         return len(self.joint_ids)
 
+    @property
+    def base_targets(self) -> torch.Tensor:
+        """(N, J) the targets the next action is added to [rad]: the current targets, or the joints' positions
+        in envs that start an episode."""
+        current = self.robot.joint_pos[:, self.joint_ids]
+        return torch.where(self.start_from_joints.unsqueeze(-1), current, self.processed_actions)
+
+    def actions_for_targets(self, targets: torch.Tensor) -> torch.Tensor:
+        """(N, J) the action that moves the targets to `targets` [rad] in one step (before the clip): replaying
+        a reference through this term (scripts/replay_pick_place_reference.py)."""
+        return (targets - self.base_targets) / self.scale
+
     def process_actions(self, actions: torch.Tensor) -> None:
         self.raw_actions.copy_(actions)
-        current = self.robot.joint_pos[:, self.joint_ids]
-        targets = torch.where(self.start_from_joints.unsqueeze(-1), current, self.processed_actions)
+        targets = self.base_targets
         self.processed_actions.copy_(torch.maximum(torch.minimum(targets + actions * self.scale, self.high),
                                                    self.low))
         self.start_from_joints.zero_()

@@ -14,6 +14,11 @@ TASKS = {  # id: (env cfg function, runner cfg function)
     "Velocity-Height-G1-Student-History-v0": ("history_student_env_cfg",
                                               "g1_velocity_height_history_student_runner_cfg"),
     "Velocity-Height-G1-History-v0": ("history_env_cfg", "g1_velocity_height_history_ppo_runner_cfg"),
+    # the distilled students trained further by PPO (AGILE's StudentFinetuneRecurrent)
+    "Velocity-Height-G1-Student-Recurrent-Finetune-v0": ("recurrent_student_finetune_env_cfg",
+                                                         "g1_velocity_height_recurrent_finetune_runner_cfg"),
+    "Velocity-Height-G1-Student-History-Finetune-v0": ("history_student_finetune_env_cfg",
+                                                       "g1_velocity_height_history_finetune_runner_cfg"),
 }
 
 TEACHER_CRITERIA = {"fall_rate": 0.05, "lin_vel_error_mps": 0.15, "base_height_error_m": 0.05}

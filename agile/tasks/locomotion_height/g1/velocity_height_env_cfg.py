@@ -9,7 +9,8 @@ pushes, and random waist-yaw and arm motions.
 
 Configs (one builder, `velocity_height_env_cfg`, with the observation groups and whether the harness is on):
 `teacher_env_cfg`, `recurrent_student_env_cfg`, `history_student_env_cfg`, `history_env_cfg` (PPO on the history
-student's observations, no teacher).
+student's observations, no teacher), and the students' PPO fine-tuning after distillation
+(`recurrent_student_finetune_env_cfg`, `history_student_finetune_env_cfg`).
 """
 
 from __future__ import annotations
@@ -290,6 +291,14 @@ class HistoryStudentObservationsCfg:
 
 
 @configclass
+class RecurrentFinetuneObservationsCfg:
+    """PPO fine-tuning of the recurrent student: its `policy` group, the teacher's privileged critic."""
+
+    policy = student_policy_obs_cfg()
+    critic = PrivilegedCriticObsCfg()
+
+
+@configclass
 class HistoryObservationsCfg:
     """PPO without a teacher: the history student's `policy` group, the teacher's privileged critic."""
 
@@ -332,3 +341,15 @@ def history_env_cfg() -> ManagerBasedRLEnvCfg:
     and harness curriculum included (PPO learns from scratch as the teacher does), on the student's
     observations."""
     return velocity_height_env_cfg(HistoryObservationsCfg(), harness=True)
+
+
+def recurrent_student_finetune_env_cfg() -> ManagerBasedRLEnvCfg:
+    """Velocity-Height-G1-Student-Recurrent-Finetune-v0 (AGILE's `StudentFinetuneRecurrent`): the distilled
+    recurrent student trained further by PPO, on the students' MDP (no harness) with a privileged critic."""
+    return velocity_height_env_cfg(RecurrentFinetuneObservationsCfg(), harness=False)
+
+
+def history_student_finetune_env_cfg() -> ManagerBasedRLEnvCfg:
+    """Velocity-Height-G1-Student-History-Finetune-v0: the distilled history student trained further by PPO, on
+    the students' MDP (no harness) with a privileged critic."""
+    return velocity_height_env_cfg(HistoryObservationsCfg(), harness=False)

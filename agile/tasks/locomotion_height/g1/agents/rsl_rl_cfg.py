@@ -41,20 +41,53 @@ def _distillation_runner_cfg(experiment_name: str, student: MlpModelCfg,
         teacher=_teacher_model_cfg())
 
 
+def _recurrent_student_model_cfg() -> RnnModelCfg:
+    """AGILE's recurrent student: LSTM (256) then MLP [256, 256, 128], action noise 0.1."""
+    return RnnModelCfg(hidden_dims=[256, 256, 128], activation="elu", obs_normalization=True,
+                       distribution_cfg=DistributionCfg(init_std=0.1), rnn_type="lstm", rnn_hidden_dim=256,
+                       rnn_num_layers=1)
+
+
+def _history_student_model_cfg() -> MlpModelCfg:
+    """AGILE's history student: MLP [512, 256, 128] on 5 steps of history, action noise 0.1."""
+    return MlpModelCfg(hidden_dims=[512, 256, 128], activation="elu", obs_normalization=True,
+                       distribution_cfg=DistributionCfg(init_std=0.1))
+
+
 def g1_velocity_height_recurrent_student_runner_cfg() -> DistillationRunnerCfg:
-    """LSTM (256) then MLP [256, 256, 128]; truncated backpropagation through 15 steps (5 × 24 = 120 steps per
-    update, 8 gradient steps)."""
-    student = RnnModelCfg(hidden_dims=[256, 256, 128], activation="elu", obs_normalization=True,
-                          distribution_cfg=DistributionCfg(init_std=0.1), rnn_type="lstm", rnn_hidden_dim=256,
-                          rnn_num_layers=1)
-    return _distillation_runner_cfg("velocity_height_g1_student_recurrent", student,
+    """Truncated backpropagation through 15 steps (5 × 24 = 120 steps per update, 8 gradient steps)."""
+    return _distillation_runner_cfg("velocity_height_g1_student_recurrent", _recurrent_student_model_cfg(),
                                     DistillationAlgorithmCfg(num_learning_epochs=5, gradient_length=15))
 
 
 def g1_velocity_height_history_student_runner_cfg() -> DistillationRunnerCfg:
-    """MLP [512, 256, 128] on 5 steps of history, with AGILE's mirror loss (coefficient 0.1)."""
-    student = MlpModelCfg(hidden_dims=[512, 256, 128], activation="elu", obs_normalization=True,
-                          distribution_cfg=DistributionCfg(init_std=0.1))
+    """With AGILE's mirror loss (coefficient 0.1)."""
     algorithm = DistillationAlgorithmCfg(num_learning_epochs=5, gradient_length=15, mirror_loss_coeff=0.1,
                                          mirror_func="agile.rl_env.mdp.symmetry:lr_mirror")
-    return _distillation_runner_cfg("velocity_height_g1_student_history", student, algorithm)
+    return _distillation_runner_cfg("velocity_height_g1_student_history", _history_student_model_cfg(), algorithm)
+
+
+def _finetune_runner_cfg(experiment_name: str, student_task: str, student: MlpModelCfg) -> PpoRunnerCfg:
+    """AGILE's `StudentFinetuneRecurrent`: PPO on a distilled student, its actor the student's architecture and
+    weights (`init_policy_task`: the shipped student, or `train.py --init_policy` a student's checkpoint), a
+    fresh privileged critic. Distillation imitates the teacher's actions but never sees the failure terms, and
+    the students end 1.5-2% of their episodes by a foot or knee distance where the teacher ends 0.5%: PPO
+    trains on the termination penalty itself. The student's small action noise (0.1) keeps the updates near
+    the distilled policy while the critic learns."""
+    cfg = _ppo_runner_cfg(experiment_name)
+    cfg.actor = student
+    cfg.init_policy_task = student_task
+    cfg.max_iterations = 2_000
+    if isinstance(student, RnnModelCfg):  # rsl-rl's PPO refuses mirrored samples with recurrent models
+        cfg.algorithm.symmetry_cfg = None
+    return cfg
+
+
+def g1_velocity_height_recurrent_finetune_runner_cfg() -> PpoRunnerCfg:
+    return _finetune_runner_cfg("velocity_height_g1_student_recurrent_finetune",
+                                "Velocity-Height-G1-Student-Recurrent-v0", _recurrent_student_model_cfg())
+
+
+def g1_velocity_height_history_finetune_runner_cfg() -> PpoRunnerCfg:
+    return _finetune_runner_cfg("velocity_height_g1_student_history_finetune",
+                                "Velocity-Height-G1-Student-History-v0", _history_student_model_cfg())

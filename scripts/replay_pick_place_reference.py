@@ -1,0 +1,152 @@
+"""Drive the upper body of PickPlace-G1-v0 exactly along the reference and report whether the cube is grasped,
+lifted and put down at the goal: the physics check under the task (can the hand hold the cube at all?).
+
+    python scripts/replay_pick_place_reference.py                          # every shipped trajectory, 4 envs, CPU
+    python scripts/replay_pick_place_reference.py --trajectories pick_place_left --num_envs 2
+    python scripts/replay_pick_place_reference.py env.actions.upper_body_joint_pos.scale=0.1   # any env override
+
+Every env starts at trajectory frame 0. Each env step the 17 upper-body joint targets are set to the reference
+joints of the current frame (the delta action is (q_ref - target) / scale) and the frozen lower body is told to
+stand (vx, vy, wz = 0, height 0.72 m). The task is otherwise as registered (its friction and cube-position
+randomisation included). Printed: per phase and env, the cube's height above its start, the palm-cube distance and
+the right-hand finger error; per env, the highest lift during the carry, how the episode ended and the command's
+episode metrics (object_lifted, object_goal_distance_m, object_at_goal).
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import dataclass
+
+import gymnasium as gym
+import torch
+
+import agile.tasks  # noqa: F401  (registers the tasks)
+from agile.assets.unitree_g1_with_hands import PALM_BODY, PALM_OFFSET_M
+from agile.motion.trajectory_file import PHASES
+from agile.rl_env import mdp
+from agile.rl_env.managers import SceneEntityCfg
+
+TASK = "PickPlace-G1-v0"
+SHIPPED = ["pick_place_left", "pick_place_near_left", "pick_place_right"]
+STANDING_COMMAND = (0.0, 0.0, 0.0, 0.72)
+"""[vx m/s, vy m/s, wz rad/s, height m] for the frozen lower body: stand still at the height it was trained at."""
+LIFT_MARGIN_M = 0.02
+"""The task's `object_lifted` margin: the cube counts as lifted this far above its start."""
+
+
+@dataclass
+class Replay:
+    """Per env step and env (the episode's steps only; an env that ended early stops being recorded)."""
+
+    trajectory: str
+    phase: torch.Tensor            # (T, N) index into PHASES
+    cube_lift_m: torch.Tensor      # (T, N) cube height above its start [m]
+    palm_cube_m: torch.Tensor      # (T, N) palm centre to cube centre [m]
+    finger_error_rad: torch.Tensor  # (T, N) mean |q - q_ref| over the 7 right-hand joints
+    valid: torch.Tensor            # (T, N) the env is still in its first episode at this step
+    ended_step: list[int]          # per env: the env step its episode ended
+    ended_by: list[str]            # per env: the termination terms that ended it
+    metrics: dict[str, list[float]]  # "<term>/<name>" of each env's episode (env.last_episode_metrics)
+
+    def carry_lift_m(self) -> torch.Tensor:
+        """(N,) the highest cube lift over each env's carry phase [m] (-inf if it never reached the carry)."""
+        carry = (self.phase == PHASES.index("carry")) & self.valid
+        return torch.where(carry, self.cube_lift_m, -torch.inf).amax(dim=0)
+
+
+def make_env(trajectory: str, num_envs: int, device: str, overrides: list[str]):
+    """The task with one trajectory, every episode from frame 0."""
+    overrides = [f'commands.reference.trajectory_files=["{trajectory}"]',
+                 "commands.reference.start_step_range=[0,0]", *overrides]
+    return gym.make(TASK, num_envs=num_envs, device=device, overrides=overrides).unwrapped
+
+
+def replay(env, trajectory: str) -> Replay:
+    """One episode of exact reference replay in every env (the whole 8 s unless it ends early)."""
+    reference = env.command_manager.get_term("reference")
+    upper = env.action_manager.get_term("upper_body_joint_pos")
+    robot, cube = env.scene["robot"], env.scene["object"]
+    palm = SceneEntityCfg("robot", body_names=PALM_BODY)
+    palm.resolve(env)
+    hand = torch.tensor([i for i, n in enumerate(reference.joint_names) if n.startswith("right_hand_")])
+    # the reference joints in the action's joint order (both are the task's 17, the order may differ)
+    order = torch.tensor([reference.joint_names.index(n) for n in upper.joint_names], device=env.device)
+    lower = torch.tensor(STANDING_COMMAND, device=env.device).expand(env.num_envs, 4)
+
+    env.reset()
+    start_z = cube.root_pos_w[:, 2].clone()
+    n, steps = env.num_envs, env.max_episode_length
+    rows = {key: torch.zeros(steps, n) for key in ("phase", "lift", "palm", "finger", "valid")}
+    running = torch.ones(n, dtype=torch.bool)
+    ended_step, ended_by = [steps] * n, ["(still running)"] * n
+    metrics = {key: [float("nan")] * n for key in env.last_episode_metrics}
+    for step in range(steps):
+        # recorded before the step: after it, an ended env has been reset already
+        palm_pos, _ = mdp.palm_pose_w(env, palm, PALM_OFFSET_M)
+        rows["phase"][step] = reference.phase.float().cpu()
+        rows["lift"][step] = (cube.root_pos_w[:, 2] - start_z).cpu()
+        rows["palm"][step] = torch.linalg.norm(cube.root_pos_w - palm_pos, dim=-1).cpu()
+        error = (reference.robot_joint_pos - reference.joint_pos)[:, hand].abs().mean(dim=-1)
+        rows["finger"][step] = error.cpu()
+        rows["valid"][step] = running.float()
+
+        upper_actions = upper.actions_for_targets(reference.joint_pos[:, order])
+        env.step(torch.cat([upper_actions, lower], dim=-1))
+
+        ended = env.reset_buf.cpu() & running
+        for i in torch.nonzero(ended).flatten().tolist():
+            ended_step[i] = step + 1
+            ended_by[i] = ",".join(name for name, done in env.termination_manager.term_dones.items()
+                                   if bool(done[i])) or "sim_unstable/invalid_action"
+            for key, value in env.last_episode_metrics.items():
+                metrics[key][i] = float(value[i])
+        running &= ~ended
+    return Replay(trajectory, rows["phase"].long(), rows["lift"], rows["palm"], rows["finger"],
+                  rows["valid"].bool(), ended_step, ended_by, metrics)
+
+
+def report(result: Replay, step_dt_s: float) -> None:
+    n = result.phase.shape[1]
+    print(f"\n=== {result.trajectory} ({n} envs) ===")
+    print("phase     time [s]   cube lift [cm] per env (max)   palm-cube [cm] (min)   finger error [rad] (mean)")
+    for index, phase in enumerate(PHASES):
+        mask = (result.phase == index) & result.valid
+        if not mask.any():
+            continue
+        steps = torch.nonzero(mask.any(dim=1)).flatten()
+        lift = torch.where(mask, result.cube_lift_m, -torch.inf).amax(dim=0) * 100
+        palm = torch.where(mask, result.palm_cube_m, torch.inf).amin(dim=0) * 100
+        finger = (result.finger_error_rad * mask).sum(dim=0) / mask.sum(dim=0).clamp(min=1)
+        print(f"{phase:<9} {steps[0] * step_dt_s:4.2f}-{(steps[-1] + 1) * step_dt_s:4.2f}  "
+              f"{' '.join(f'{v:6.1f}' for v in lift.tolist()):<30} {' '.join(f'{v:5.1f}' for v in palm.tolist()):<22} "
+              f"{' '.join(f'{v:5.2f}' for v in finger.tolist())}")
+    carry = result.carry_lift_m()
+    for i in range(n):
+        lifted = "LIFTED" if carry[i] > LIFT_MARGIN_M else "not lifted"
+        metrics = ", ".join(f"{k.split('/')[-1]} {v[i]:.3f}" for k, v in result.metrics.items())
+        print(f"env {i}: carry max lift {carry[i] * 100:5.1f} cm ({lifted}); ended at {result.ended_step[i] * step_dt_s:.2f} s "
+              f"by {result.ended_by[i]}; {metrics}")
+
+
+def main(argv=None) -> list[Replay]:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--trajectories", nargs="+", default=SHIPPED, help="shipped names or paths")
+    parser.add_argument("--num_envs", type=int, default=4)
+    parser.add_argument("--device", default="cpu")
+    parser.add_argument("overrides", nargs="*", help="env config overrides, e.g. env.sim.physics_dt_s=0.002")
+    args = parser.parse_args(argv)
+    results = []
+    for trajectory in args.trajectories:
+        env = make_env(trajectory, args.num_envs, args.device, args.overrides)
+        result = replay(env, trajectory)
+        report(result, env.step_dt)
+        results.append(result)
+        env.close()
+    lifted = torch.cat([r.carry_lift_m() > LIFT_MARGIN_M for r in results])
+    print(f"\nlifted > {LIFT_MARGIN_M * 100:.0f} cm during the carry in {int(lifted.sum())} of {len(lifted)} episodes")
+    return results
+
+
+if __name__ == "__main__":
+    main()
