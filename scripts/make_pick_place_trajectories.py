@@ -3,11 +3,18 @@
     python scripts/make_pick_place_trajectories.py                 # into agile/data/trajectories/
     python scripts/make_pick_place_trajectories.py --out /tmp/traj
 
-Each trajectory is a few palm keyframes (above and behind the cube, at the cube, lifted, over the goal, at the
-goal, pulled back) solved by damped-least-squares inverse kinematics on the right arm of the MuJoCo model of the
-G1 with hands (root fixed at its default pose), with scripted waist and finger angles. Between keyframes the
-joints ease in and out (smoothstep); the cube rides with the palm while the hand holds it. Frames are written
-every 0.1 s, which the loader interpolates linearly (agile/motion/trajectory_file.py).
+Each trajectory is a few hand keyframes (raised above the table's near edge, beside the cube, around the cube,
+lifted, over the goal, at the goal, pulled away, raised) solved by damped-least-squares inverse kinematics on the
+right arm of the MuJoCo model of the G1 with hands (root fixed where the frozen lower body stands), with scripted
+waist and finger angles. Between keyframes the joints ease in and out (smoothstep); the cube rides with the hand
+while it holds it. Frames are written every 0.1 s, which the loader interpolates linearly
+(agile/motion/trajectory_file.py).
+
+The grasp is a side pinch: the palm (which faces the thumb, +y of the wrist-yaw link) against the cube's right
+face, the thumb behind it and the middle finger around its front; the index finger closes above the cube. Every
+frame is checked against the table and the cube in MuJoCo (`check_clearance`): no hand geom enters the table,
+none touches the cube before the grasp, and the closed thumb and middle finger press into it (their PD squeezes
+by the angle they are held short of the reference).
 """
 
 from __future__ import annotations
@@ -18,8 +25,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from agile.assets.tabletop import CUBE_START_POS_M
-from agile.assets.unitree_g1 import INIT_HEIGHT_M
+from agile.assets.tabletop import CUBE_EDGE_M, CUBE_START_POS_M, TABLE_FRONT_EDGE_X_M, TABLE_SIZE_M
 from agile.assets.unitree_g1_with_hands import PALM_BODY, PALM_OFFSET_M, g1_with_hands_robot_cfg
 from agile.motion.trajectory_file import PHASES, SHIPPED_TRAJECTORIES_DIR, Trajectory, write_trajectory
 from agile.sim.names import resolve_values
@@ -32,17 +38,36 @@ TRACKED_JOINTS = ["waist_yaw_joint", "waist_roll_joint", "waist_pitch_joint",
                   "right_hand_middle_0_joint", "right_hand_middle_1_joint", "right_hand_index_0_joint",
                   "right_hand_index_1_joint"]
 ARM_JOINTS = TRACKED_JOINTS[3:10]
-HAND_CLOSED = {"right_hand_thumb_1_joint": 0.5, "right_hand_thumb_2_joint": -0.8, "right_hand_middle_0_joint": 0.9,
-               "right_hand_middle_1_joint": 0.8, "right_hand_index_0_joint": 0.9, "right_hand_index_1_joint": 0.8}
-"""Finger angles around a 6 cm cube [rad] (an open hand is all zeros)."""
-WAIST_PITCH_REACHING_RAD = 0.1
+HAND_OPEN = {"right_hand_thumb_1_joint": 0.5}
+"""Fingers straight, the thumb swung back (away from the fingers), so that it passes behind the cube [rad]."""
+HAND_CLOSED = {"right_hand_thumb_1_joint": -0.05, "right_hand_thumb_2_joint": -0.4, "right_hand_middle_0_joint": 0.85,
+               "right_hand_middle_1_joint": 0.7, "right_hand_index_0_joint": 0.85, "right_hand_index_1_joint": 0.7}
+"""Around the 6 cm cube [rad]: the right thumb closes toward negative thumb_1 (its range is -1.05..0.72). Measured
+in MuJoCo with the cube at `OBJECT_IN_HAND_M`: the thumb meets the cube at thumb_1 0.1 (thumb_2 -0.4), the middle
+finger at middle_0 0.7 / middle_1 0.56; these angles are 0.15 rad further, so that the soft finger PD (kp 4 N·m/rad)
+squeezes with about 0.6 N·m per finger, some 10 N at the fingertips against the cube's 1 N weight (friction 1)."""
+OBJECT_IN_HAND_M = np.array([0.105, 0.058, -0.02])
+"""The held cube's centre in the wrist-yaw link's frame: 3.4 cm off the palm's surface (y 0.024) toward the thumb,
+between the thumb (x 0.06-0.08) and the curled fingers (x 0.13-0.16), 2 cm below the hand's centre so that the
+hand's lower edge (z -0.044) clears the table top by 6 mm while the cube rests on it."""
+WAIST_PITCH_REACHING_RAD = 0.0
 """A slight forward lean from the approach to the release."""
+STANDING_ROOT_POS_M = np.array([-0.045, 0.0, 0.73])
+STANDING_ROOT_PITCH_RAD = -0.15
+"""Where the frozen lower body holds the pelvis standing still (command [0, 0, 0, 0.72], arms at their defaults),
+measured in this scene on CPU (scripts/replay_pick_place_reference.py): 2.5 cm below and 3 cm behind the spawn
+pose (0, 0, 0.76), tilted back 0.05 rad. The reference is solved for the robot as it stands."""
 FRAME_STEP_S = 0.1
-ROTATION_WEIGHT = 0.1
-"""How much the inverse kinematics trades palm position [m] for the hand's orientation [rad]: a soft preference."""
+ROTATION_WEIGHT = 0.05
+"""How much the inverse kinematics trades hand position [m] for the hand's orientation [rad]: a soft preference."""
 LIFT_M = 0.12
-PRE_GRASP_OFFSET_M = np.array([-0.10, 0.0, 0.06])
-"""The palm's keyframe before the grasp: behind and above the cube."""
+BESIDE_CUBE_M = np.array([0.0, -0.05, 0.03])
+"""The held point's keyframe before the grasp: 5 cm right of the cube (the palm's side) and 3 cm above it."""
+RAISED_HAND_M = np.array([TABLE_FRONT_EDGE_X_M - 0.14, CUBE_START_POS_M[1] - 0.08, TABLE_SIZE_M[2] + 0.11])
+"""The held point's keyframe on the way from the hanging arm to the table and back: in front of the table's near
+edge (the fingers reach 11 cm ahead of it) and the hand's lower edge 6 cm above the table top."""
+TABLE_CLEARANCE_M = 0.001
+"""The deepest a hand geom may enter the table in any frame [m] (contact distances of convex meshes)."""
 GOALS_M = {  # name: (cube goal xy offset from its start [m], description)
     "pick_place_left": ((0.0, 0.15), "pick the cube up and put it down 15 cm to the left"),
     "pick_place_near_left": ((0.0, 0.08), "pick the cube up and put it down 8 cm to the left"),
@@ -51,11 +76,18 @@ GOALS_M = {  # name: (cube goal xy offset from its start [m], description)
 
 
 class G1Kinematics:
-    """MuJoCo model of the G1 with hands, root fixed at its default pose; forward and inverse kinematics."""
+    """MuJoCo model of the G1 with hands, root fixed where it stands, with the table and a posable cube; forward and
+    inverse kinematics and the hand's contacts with the table and the cube."""
 
     def __init__(self):
         cfg = g1_with_hands_robot_cfg()
-        self.model = mujoco.MjModel.from_xml_path(cfg.model_file)
+        spec = mujoco.MjSpec.from_file(cfg.model_file)
+        table_half_m = np.array(TABLE_SIZE_M) / 2
+        spec.worldbody.add_geom(name="table", type=mujoco.mjtGeom.mjGEOM_BOX, size=table_half_m,
+                                pos=[TABLE_FRONT_EDGE_X_M + table_half_m[0], 0.0, table_half_m[2]])
+        cube = spec.worldbody.add_body(name="cube", mocap=True)
+        cube.add_geom(name="cube", type=mujoco.mjtGeom.mjGEOM_BOX, size=[CUBE_EDGE_M / 2] * 3)
+        self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
         self.joint_names = [self.model.joint(i).name for i in range(1, self.model.njnt)]  # after the free root
         self.qpos_adr = {n: self.model.joint(n).qposadr[0] for n in self.joint_names}
@@ -65,37 +97,59 @@ class G1Kinematics:
             self.default[self.joint_names[i]] = value
         self.palm_body = self.model.body(PALM_BODY).id
         self.anchor_body = self.model.body(ANCHOR_BODY).id
+        self.hand_bodies = {i for i in range(self.model.nbody) if self.model.body(i).name.startswith("right_hand_")}
+        self.hand_bodies.add(self.palm_body)
+        self.table_geom, self.cube_geom = self.model.geom("table").id, self.model.geom("cube").id
 
-    def forward(self, joints: dict[str, float]) -> None:
+    def forward(self, joints: dict[str, float], cube_pos_m=(0.0, 0.0, -1.0), cube_rotation=np.eye(3)) -> None:
         self.data.qpos[:] = 0.0
-        self.data.qpos[2], self.data.qpos[3] = INIT_HEIGHT_M, 1.0
+        self.data.qpos[:3] = STANDING_ROOT_POS_M
+        self.data.qpos[3:7] = [np.cos(STANDING_ROOT_PITCH_RAD / 2), 0.0, np.sin(STANDING_ROOT_PITCH_RAD / 2), 0.0]
         for name, value in {**self.default, **joints}.items():
             self.data.qpos[self.qpos_adr[name]] = value
+        self.data.mocap_pos[0] = cube_pos_m
+        mujoco.mju_mat2Quat(self.data.mocap_quat[0], np.asarray(cube_rotation).flatten())
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_comPos(self.model, self.data)  # mj_jac reads the COM-based frames
 
-    def palm(self) -> tuple[np.ndarray, np.ndarray]:
-        """The palm centre [m] and the palm body's rotation matrix, world = env frame."""
+    def hand_point(self, point_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A point given in the palm body's frame, and that frame's rotation matrix, world = env frame."""
         rotation = self.data.xmat[self.palm_body].reshape(3, 3)
-        return self.data.xpos[self.palm_body] + rotation @ np.array(PALM_OFFSET_M), rotation
+        return self.data.xpos[self.palm_body] + rotation @ point_m, rotation
+
+    def palm(self) -> tuple[np.ndarray, np.ndarray]:
+        """The palm centre [m] (the tasks' `PALM_OFFSET_M`) and the palm body's rotation matrix."""
+        return self.hand_point(np.array(PALM_OFFSET_M))
 
     def body_pose(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         """Position and quaternion (x, y, z, w)."""
         w, x, y, z = self.data.xquat[body]
         return self.data.xpos[body].copy(), np.array([x, y, z, w])
 
-    def solve_palm(self, target_m: np.ndarray, joints: dict[str, float], iterations: int = 600) -> dict[str, float]:
-        """Right-arm angles that put the palm centre at `target_m` with the fingers pointing forward (+x) and the
-        thumb to the left (+y), from `joints`; damped least squares, within the joint limits."""
+    def contacts(self) -> dict[str, float]:
+        """{"table"|"cube": the deepest any right-hand geom enters it [m]} after `forward`."""
+        mujoco.mj_collision(self.model, self.data)
+        deepest = {"table": 0.0, "cube": 0.0}
+        for contact in self.data.contact[:self.data.ncon]:
+            for other, name in ((self.table_geom, "table"), (self.cube_geom, "cube")):
+                geom = {contact.geom1, contact.geom2} - {other}
+                if len(geom) == 1 and self.model.geom_bodyid[geom.pop()] in self.hand_bodies:
+                    deepest[name] = max(deepest[name], -contact.dist)
+        return deepest
+
+    def solve(self, target_m: np.ndarray, joints: dict[str, float], point_m: np.ndarray = OBJECT_IN_HAND_M,
+              iterations: int = 600) -> dict[str, float]:
+        """Right-arm angles that put `point_m` (palm body frame) at `target_m` with the fingers pointing forward
+        (+x) and the thumb to the left (+y), from `joints`; damped least squares, within the joint limits."""
         joints = dict(joints)
         jacp, jacr = np.zeros((3, self.model.nv)), np.zeros((3, self.model.nv))
         dofs = [self.dof_adr[n] for n in ARM_JOINTS]
         for _ in range(iterations):
             self.forward(joints)
-            palm, rotation = self.palm()
-            position_error = target_m - palm
+            point, rotation = self.hand_point(point_m)
+            position_error = target_m - point
             rotation_error = 0.5 * (np.cross(rotation[:, 0], [1, 0, 0]) + np.cross(rotation[:, 1], [0, 1, 0]))
-            mujoco.mj_jac(self.model, self.data, jacp, jacr, palm, self.palm_body)
+            mujoco.mj_jac(self.model, self.data, jacp, jacr, point, self.palm_body)
             jac = np.vstack([jacp[:, dofs], ROTATION_WEIGHT * jacr[:, dofs]])
             error = np.concatenate([position_error, ROTATION_WEIGHT * rotation_error])
             step = jac.T @ np.linalg.solve(jac @ jac.T + 1e-3 * np.eye(6), error)
@@ -103,9 +157,9 @@ class G1Kinematics:
                 low, high = self.model.jnt_range[self.model.joint(name).id]
                 joints[name] = float(np.clip(joints[name] + delta, low, high))
         self.forward(joints)
-        miss = np.linalg.norm(target_m - self.palm()[0])
+        miss = np.linalg.norm(target_m - self.hand_point(point_m)[0])
         if miss > 0.005:
-            raise RuntimeError(f"inverse kinematics misses the palm target {target_m.tolist()} by {miss:.3f} m")
+            raise RuntimeError(f"inverse kinematics misses the hand target {target_m.tolist()} by {miss:.3f} m")
         return joints
 
 
@@ -115,28 +169,29 @@ def quat_from_matrix(rotation: np.ndarray) -> np.ndarray:
     return np.array([*wxyz[1:], wxyz[0]])
 
 
-def make_trajectory(kin: G1Kinematics, goal_xy_m: tuple[float, float]) -> Trajectory:
+def make_trajectory(kin: G1Kinematics, goal_xy_m: tuple[float, float], name: str = "") -> Trajectory:
     cube = np.array(CUBE_START_POS_M)
     goal = cube + np.array([*goal_xy_m, 0.0])
     lean = {"waist_pitch_joint": WAIST_PITCH_REACHING_RAD}
     start = {n: kin.default[n] for n in TRACKED_JOINTS}
-    pre_grasp = kin.solve_palm(cube + PRE_GRASP_OFFSET_M, {**start, **lean})
-    grasp = kin.solve_palm(cube, pre_grasp)
+    raised = {**kin.solve(RAISED_HAND_M, {**start, **lean}), **HAND_OPEN}
+    beside = {**kin.solve(cube + BESIDE_CUBE_M, raised), **HAND_OPEN}
+    grasp = {**kin.solve(cube, beside), **HAND_OPEN}
     closed = {**grasp, **HAND_CLOSED}
-    lifted = {**kin.solve_palm(cube + [0, 0, LIFT_M], closed), **HAND_CLOSED}
-    over_goal = {**kin.solve_palm(goal + [0, 0, LIFT_M], lifted), **HAND_CLOSED}
-    at_goal = {**kin.solve_palm(goal, over_goal), **HAND_CLOSED}
-    released = {**at_goal, **{n: 0.0 for n in HAND_CLOSED}}
-    pulled_back = kin.solve_palm(goal + PRE_GRASP_OFFSET_M, released)
+    lifted = {**kin.solve(cube + [0, 0, LIFT_M], closed), **HAND_CLOSED}
+    over_goal = {**kin.solve(goal + [0, 0, LIFT_M], lifted), **HAND_CLOSED}
+    at_goal = {**kin.solve(goal, over_goal), **HAND_CLOSED}
+    released = {**at_goal, **{n: 0.0 for n in HAND_CLOSED}, **HAND_OPEN}
+    pulled_away = {**kin.solve(goal + BESIDE_CUBE_M, released), **HAND_OPEN}
     keyframes = [  # (time [s], phase from here to the next keyframe, joints)
-        (0.0, "approach", start), (1.5, "approach", pre_grasp), (3.0, "grasp", grasp), (3.5, "carry", closed),
-        (4.5, "carry", lifted), (5.5, "carry", over_goal), (6.3, "release", at_goal), (6.8, "retract", released),
-        (7.3, "retract", pulled_back), (7.8, "retract", start)]
+        (0.0, "approach", start), (1.0, "approach", raised), (2.0, "approach", beside), (3.0, "grasp", grasp),
+        (3.5, "carry", closed), (4.5, "carry", lifted), (5.5, "carry", over_goal), (6.3, "release", at_goal),
+        (6.8, "retract", released), (7.1, "retract", pulled_away), (7.5, "retract", raised), (7.8, "retract", start)]
 
     times = np.arange(0.0, keyframes[-1][0] + 1e-9, FRAME_STEP_S)
     rows = {key: [] for key in ("phase", "joint_pos", "object_pos_m", "object_quat_xyzw", "anchor_pos_m",
                                 "anchor_quat_xyzw")}
-    grasp_palm = None
+    grasp_hand = None
     cube_pos, cube_rotation = cube, np.eye(3)  # at rest until carried; where it was put down after that
     for t in times:
         k = min(np.searchsorted([kf[0] for kf in keyframes], t, side="right") - 1, len(keyframes) - 2)
@@ -145,12 +200,14 @@ def make_trajectory(kin: G1Kinematics, goal_xy_m: tuple[float, float]) -> Trajec
         s = u * u * (3.0 - 2.0 * u)
         joints = {n: (1.0 - s) * q0[n] + s * q1[n] for n in TRACKED_JOINTS}
         kin.forward(joints)
-        palm, palm_rotation = kin.palm()
-        if phase == "carry":  # the cube keeps the pose relative to the palm it had when the grasp ended
-            if grasp_palm is None:
-                grasp_palm = palm.copy(), palm_rotation.copy()
-            relative = grasp_palm[1].T @ (cube - grasp_palm[0])
-            cube_pos, cube_rotation = palm + palm_rotation @ relative, palm_rotation @ grasp_palm[1].T
+        hand, hand_rotation = kin.hand_point(np.zeros(3))
+        if phase == "carry":  # the cube keeps the pose relative to the hand it had when the grasp ended
+            if grasp_hand is None:
+                grasp_hand = hand.copy(), hand_rotation.copy()
+            relative = grasp_hand[1].T @ (cube - grasp_hand[0])
+            cube_pos, cube_rotation = hand + hand_rotation @ relative, hand_rotation @ grasp_hand[1].T
+        check_clearance(kin, joints, cube_pos, cube_rotation, phase, f"{name} at {t:.1f} s")
+        kin.forward(joints)
         rows["phase"].append(PHASES.index(phase))
         rows["joint_pos"].append([joints[n] for n in TRACKED_JOINTS])
         rows["object_pos_m"].append(cube_pos)
@@ -162,6 +219,20 @@ def make_trajectory(kin: G1Kinematics, goal_xy_m: tuple[float, float]) -> Trajec
                       **{key: np.asarray(value) for key, value in rows.items()})
 
 
+def check_clearance(kin: G1Kinematics, joints: dict[str, float], cube_pos_m: np.ndarray, cube_rotation: np.ndarray,
+                    phase: str, where: str) -> None:
+    """The hand never enters the table, touches the cube only from the grasp to the release, and the closed hand
+    presses into it (a reference the hand cannot follow through the table is no reference)."""
+    kin.forward(joints, cube_pos_m, cube_rotation)
+    depth = kin.contacts()
+    if depth["table"] > TABLE_CLEARANCE_M:
+        raise RuntimeError(f"{where}: the hand enters the table by {depth['table'] * 1000:.1f} mm")
+    if phase == "approach" and depth["cube"] > 0.0:
+        raise RuntimeError(f"{where}: the hand touches the cube before the grasp ({depth['cube'] * 1000:.1f} mm)")
+    if phase == "carry" and depth["cube"] <= 0.0:
+        raise RuntimeError(f"{where}: the closed hand does not touch the cube it carries")
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", default=str(SHIPPED_TRAJECTORIES_DIR), help="output folder")
@@ -171,7 +242,7 @@ def main(argv=None) -> None:
     kin = G1Kinematics()
     for name, (goal_xy_m, description) in GOALS_M.items():
         path = out / f"{name}.yaml"
-        write_trajectory(path, make_trajectory(kin, goal_xy_m),
+        write_trajectory(path, make_trajectory(kin, goal_xy_m, name),
                          f"{description} (scripts/make_pick_place_trajectories.py)")
         print(f"[agile] {path}")
 

@@ -1,16 +1,26 @@
-"""Drive the upper body of PickPlace-G1-v0 exactly along the reference and report whether the cube is grasped,
-lifted and put down at the goal: the physics check under the task (can the hand hold the cube at all?).
+"""Drive the upper body of PickPlace-G1-v0 along the reference and report whether the cube is grasped, lifted and
+put down at the goal: the physics check under the task (can the hand hold the cube at all?).
 
     python scripts/replay_pick_place_reference.py                          # every shipped trajectory, 4 envs, CPU
     python scripts/replay_pick_place_reference.py --trajectories pick_place_left --num_envs 2
+    python scripts/replay_pick_place_reference.py --gravity_compensation --hold_anchor
     python scripts/replay_pick_place_reference.py env.actions.upper_body_joint_pos.scale=0.1   # any env override
 
 Every env starts at trajectory frame 0. Each env step the 17 upper-body joint targets are set to the reference
-joints of the current frame (the delta action is (q_ref - target) / scale) and the frozen lower body is told to
-stand (vx, vy, wz = 0, height 0.72 m). The task is otherwise as registered (its friction and cube-position
-randomisation included). Printed: per phase and env, the cube's height above its start, the palm-cube distance and
-the right-hand finger error; per env, the highest lift during the carry, how the episode ended and the command's
-episode metrics (object_lifted, object_goal_distance_m, object_at_goal).
+joints of the current frame (through the task's delta action: (target - current target) / scale) and the frozen
+lower body is told to stand (vx, vy, wz = 0, height 0.72 m). The task is otherwise as registered (its friction
+and cube-position randomisation included).
+
+The arm and waist are soft PD joints (shoulder and elbow kp 14 N·m/rad): with the reference as their targets they
+sag under gravity. `--gravity_compensation` adds the static gravity torque over kp to the waist and arm targets
+(the torque from CPU MuJoCo on the robot's model at its measured state), so that the joints, not only their
+targets, are at the reference; the fingers keep the reference, so they squeeze with kp × the angle the cube holds
+them short of it. `--hold_anchor` steers the lower body (vx, vy) toward the reference's torso position. Both are
+actions the policy has too.
+
+Printed: per phase and env, the cube's height above its start, the palm-cube distance and the right-hand finger
+error; per env, the highest lift during the carry, how the episode ended and the command's episode metrics
+(object_lifted, object_goal_distance_m, object_at_goal).
 """
 
 from __future__ import annotations
@@ -19,6 +29,8 @@ import argparse
 from dataclasses import dataclass
 
 import gymnasium as gym
+import mujoco
+import numpy as np
 import torch
 
 import agile.tasks  # noqa: F401  (registers the tasks)
@@ -26,11 +38,14 @@ from agile.assets.unitree_g1_with_hands import PALM_BODY, PALM_OFFSET_M
 from agile.motion.trajectory_file import PHASES
 from agile.rl_env import mdp
 from agile.rl_env.managers import SceneEntityCfg
+from agile.utils.math import quat_rotate_inverse
 
 TASK = "PickPlace-G1-v0"
 SHIPPED = ["pick_place_left", "pick_place_near_left", "pick_place_right"]
-STANDING_COMMAND = (0.0, 0.0, 0.0, 0.72)
-"""[vx m/s, vy m/s, wz rad/s, height m] for the frozen lower body: stand still at the height it was trained at."""
+STANDING_HEIGHT_M = 0.72
+"""The frozen lower body's height command: the top of its range, where it was trained to stand."""
+ANCHOR_GAIN_PER_S = 3.0
+"""`--hold_anchor`: lower-body velocity command [m/s] per metre of torso position error (root frame)."""
 LIFT_MARGIN_M = 0.02
 """The task's `object_lifted` margin: the cube counts as lifted this far above its start."""
 
@@ -40,19 +55,46 @@ class Replay:
     """Per env step and env (the episode's steps only; an env that ended early stops being recorded)."""
 
     trajectory: str
-    phase: torch.Tensor            # (T, N) index into PHASES
-    cube_lift_m: torch.Tensor      # (T, N) cube height above its start [m]
-    palm_cube_m: torch.Tensor      # (T, N) palm centre to cube centre [m]
-    finger_error_rad: torch.Tensor  # (T, N) mean |q - q_ref| over the 7 right-hand joints
-    valid: torch.Tensor            # (T, N) the env is still in its first episode at this step
-    ended_step: list[int]          # per env: the env step its episode ended
-    ended_by: list[str]            # per env: the termination terms that ended it
+    phase: torch.Tensor              # (T, N) index into PHASES
+    cube_lift_m: torch.Tensor        # (T, N) cube height above its start [m]
+    palm_cube_m: torch.Tensor        # (T, N) palm centre to cube centre [m]
+    finger_error_rad: torch.Tensor   # (T, N) mean |q - q_ref| over the 7 right-hand joints
+    valid: torch.Tensor              # (T, N) the env is still in its first episode at this step
+    ended_step: list[int]            # per env: the env step its episode ended
+    ended_by: list[str]              # per env: the termination terms that ended it
     metrics: dict[str, list[float]]  # "<term>/<name>" of each env's episode (env.last_episode_metrics)
 
     def carry_lift_m(self) -> torch.Tensor:
         """(N,) the highest cube lift over each env's carry phase [m] (-inf if it never reached the carry)."""
         carry = (self.phase == PHASES.index("carry")) & self.valid
         return torch.where(carry, self.cube_lift_m, -torch.inf).amax(dim=0)
+
+
+class GravityTorque:
+    """The static gravity torque on some joints of the robot at its measured state [N·m], from CPU MuJoCo on the
+    robot's own model file (a policy could learn this function of the state; the replay computes it)."""
+
+    def __init__(self, robot, joint_ids: torch.Tensor):
+        self.robot = robot
+        self.model = mujoco.MjModel.from_xml_path(robot.cfg.model_file)
+        self.data = mujoco.MjData(self.model)
+        self.qpos_adr = np.array([self.model.joint(n).qposadr[0] for n in robot.joint_names])
+        self.dof_adr = np.array([self.model.joint(robot.joint_names[i]).dofadr[0] for i in joint_ids.tolist()])
+
+    def __call__(self) -> torch.Tensor:
+        root_pos = self.robot.root_pos_w.cpu().numpy()
+        root_quat_xyzw = self.robot.root_quat_w.cpu().numpy()
+        joint_pos = self.robot.joint_pos.cpu().numpy()
+        torque = np.zeros((len(joint_pos), len(self.dof_adr)))
+        for env in range(len(joint_pos)):
+            self.data.qpos[:] = 0.0
+            self.data.qpos[:3] = root_pos[env]
+            self.data.qpos[3:7] = np.roll(root_quat_xyzw[env], 1)  # MuJoCo: w, x, y, z
+            self.data.qpos[self.qpos_adr] = joint_pos[env]
+            self.data.qvel[:] = 0.0  # at rest: the bias force is gravity alone
+            mujoco.mj_forward(self.model, self.data)
+            torque[env] = self.data.qfrc_bias[self.dof_adr]
+        return torch.as_tensor(torque, dtype=torch.float32, device=self.robot.joint_pos.device)
 
 
 def make_env(trajectory: str, num_envs: int, device: str, overrides: list[str]):
@@ -62,8 +104,8 @@ def make_env(trajectory: str, num_envs: int, device: str, overrides: list[str]):
     return gym.make(TASK, num_envs=num_envs, device=device, overrides=overrides).unwrapped
 
 
-def replay(env, trajectory: str) -> Replay:
-    """One episode of exact reference replay in every env (the whole 8 s unless it ends early)."""
+def replay(env, trajectory: str, gravity_compensation: bool = False, hold_anchor: bool = False) -> Replay:
+    """One episode of reference replay in every env (the whole 8 s unless it ends early)."""
     reference = env.command_manager.get_term("reference")
     upper = env.action_manager.get_term("upper_body_joint_pos")
     robot, cube = env.scene["robot"], env.scene["object"]
@@ -72,7 +114,11 @@ def replay(env, trajectory: str) -> Replay:
     hand = torch.tensor([i for i, n in enumerate(reference.joint_names) if n.startswith("right_hand_")])
     # the reference joints in the action's joint order (both are the task's 17, the order may differ)
     order = torch.tensor([reference.joint_names.index(n) for n in upper.joint_names], device=env.device)
-    lower = torch.tensor(STANDING_COMMAND, device=env.device).expand(env.num_envs, 4)
+    arm = torch.tensor([not n.startswith("right_hand_") for n in upper.joint_names], device=env.device)
+    stiffness = robot.joint_stiffness[:, upper.joint_ids]
+    gravity = GravityTorque(robot, upper.joint_ids) if gravity_compensation else None
+    lower = torch.zeros(env.num_envs, 4, device=env.device)
+    lower[:, 3] = STANDING_HEIGHT_M
 
     env.reset()
     start_z = cube.root_pos_w[:, 2].clone()
@@ -91,8 +137,13 @@ def replay(env, trajectory: str) -> Replay:
         rows["finger"][step] = error.cpu()
         rows["valid"][step] = running.float()
 
-        upper_actions = upper.actions_for_targets(reference.joint_pos[:, order])
-        env.step(torch.cat([upper_actions, lower], dim=-1))
+        targets_rad = reference.joint_pos[:, order]
+        if gravity is not None:  # the PD's steady error under gravity is torque / kp: aim that much further
+            targets_rad = targets_rad + torch.where(arm, gravity() / stiffness, 0.0)
+        if hold_anchor:
+            error_b = quat_rotate_inverse(robot.root_quat_w, reference.anchor_pos_w - reference.robot_anchor_pos_w)
+            lower[:, :2] = ANCHOR_GAIN_PER_S * error_b[:, :2]  # the env clips it to the lower body's range
+        env.step(torch.cat([upper.actions_for_targets(targets_rad), lower], dim=-1))
 
         ended = env.reset_buf.cpu() & running
         for i in torch.nonzero(ended).flatten().tolist():
@@ -109,7 +160,7 @@ def replay(env, trajectory: str) -> Replay:
 def report(result: Replay, step_dt_s: float) -> None:
     n = result.phase.shape[1]
     print(f"\n=== {result.trajectory} ({n} envs) ===")
-    print("phase     time [s]   cube lift [cm] per env (max)   palm-cube [cm] (min)   finger error [rad] (mean)")
+    print("phase     time [s]     cube lift [cm] (max, per env)  palm-cube [cm] (min)    finger error [rad] (mean)")
     for index, phase in enumerate(PHASES):
         mask = (result.phase == index) & result.valid
         if not mask.any():
@@ -119,14 +170,14 @@ def report(result: Replay, step_dt_s: float) -> None:
         palm = torch.where(mask, result.palm_cube_m, torch.inf).amin(dim=0) * 100
         finger = (result.finger_error_rad * mask).sum(dim=0) / mask.sum(dim=0).clamp(min=1)
         print(f"{phase:<9} {steps[0] * step_dt_s:4.2f}-{(steps[-1] + 1) * step_dt_s:4.2f}  "
-              f"{' '.join(f'{v:6.1f}' for v in lift.tolist()):<30} {' '.join(f'{v:5.1f}' for v in palm.tolist()):<22} "
+              f"{' '.join(f'{v:6.1f}' for v in lift.tolist()):<31} {' '.join(f'{v:5.1f}' for v in palm.tolist()):<23} "
               f"{' '.join(f'{v:5.2f}' for v in finger.tolist())}")
     carry = result.carry_lift_m()
     for i in range(n):
         lifted = "LIFTED" if carry[i] > LIFT_MARGIN_M else "not lifted"
         metrics = ", ".join(f"{k.split('/')[-1]} {v[i]:.3f}" for k, v in result.metrics.items())
-        print(f"env {i}: carry max lift {carry[i] * 100:5.1f} cm ({lifted}); ended at {result.ended_step[i] * step_dt_s:.2f} s "
-              f"by {result.ended_by[i]}; {metrics}")
+        print(f"env {i}: carry max lift {carry[i] * 100:5.1f} cm ({lifted}); ended at "
+              f"{result.ended_step[i] * step_dt_s:.2f} s by {result.ended_by[i]}; {metrics}")
 
 
 def main(argv=None) -> list[Replay]:
@@ -134,17 +185,23 @@ def main(argv=None) -> list[Replay]:
     parser.add_argument("--trajectories", nargs="+", default=SHIPPED, help="shipped names or paths")
     parser.add_argument("--num_envs", type=int, default=4)
     parser.add_argument("--device", default="cpu")
+    parser.add_argument("--gravity_compensation", action="store_true",
+                        help="add the static gravity torque / kp to the waist and arm targets")
+    parser.add_argument("--hold_anchor", action="store_true",
+                        help="steer the lower body (vx, vy) toward the reference torso position")
     parser.add_argument("overrides", nargs="*", help="env config overrides, e.g. env.sim.physics_dt_s=0.002")
     args = parser.parse_args(argv)
     results = []
     for trajectory in args.trajectories:
         env = make_env(trajectory, args.num_envs, args.device, args.overrides)
-        result = replay(env, trajectory)
+        result = replay(env, trajectory, args.gravity_compensation, args.hold_anchor)
         report(result, env.step_dt)
         results.append(result)
         env.close()
     lifted = torch.cat([r.carry_lift_m() > LIFT_MARGIN_M for r in results])
-    print(f"\nlifted > {LIFT_MARGIN_M * 100:.0f} cm during the carry in {int(lifted.sum())} of {len(lifted)} episodes")
+    at_goal = [v for r in results for v in r.metrics.get("reference/object_at_goal", [])]
+    print(f"\nlifted > {LIFT_MARGIN_M * 100:.0f} cm during the carry in {int(lifted.sum())} of {len(lifted)} episodes; "
+          f"at the goal at the end in {int(np.nansum(at_goal))} of {len(at_goal)}")
     return results
 
 

@@ -22,7 +22,20 @@ import sys
 from utils import cli, multi_agent
 
 
-def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iterations: int) -> None:
+def warm_up_critic(runner, iterations: int) -> None:
+    """Train `iterations` PPO iterations with the actor's weights held (its gradients off; Adam skips weights
+    without one, and the actor's unchanged outputs leave the adaptive learning rate as it is): only the critic
+    learns the returns of the policy it will judge."""
+    actor = runner.alg.get_policy()
+    print(f"[agile] critic warm-up: {iterations} iterations with the actor held")
+    actor.requires_grad_(False)
+    runner.learn(num_learning_iterations=iterations, init_at_random_ep_len=True)
+    runner.current_learning_iteration += 1  # RSL-RL leaves the counter on the last iteration done
+    actor.requires_grad_(True)
+
+
+def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iterations: int,
+                     random_episode_starts: bool = True) -> None:
     """Train in chunks of --video_interval iterations, recording a clip of the current policy after each."""
     import copy
 
@@ -41,7 +54,7 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
     done = 0
     while done < iterations:
         chunk = min(args.video_interval, iterations - done)
-        runner.learn(num_learning_iterations=chunk, init_at_random_ep_len=done == 0)
+        runner.learn(num_learning_iterations=chunk, init_at_random_ep_len=random_episode_starts and done == 0)
         # RSL-RL leaves the counter on the last iteration done; the next chunk starts one later
         runner.current_learning_iteration += 1
         done += chunk
@@ -299,10 +312,16 @@ def main(argv=None) -> None:
         print(f"[agile] actor initialised from {args.init_policy}")
         start = initial_actor_checkpoint(init_contents, args.init_policy, log_dir, args.init_action_std)
         restore_runner(runner, start, load_cfg={"actor": True})
+    iterations, warmup = agent_cfg.max_iterations, 0
+    if args.init_policy:
+        warmup = min(getattr(agent_cfg, "critic_warmup_iterations", 0), iterations)
+    if warmup > 0:
+        warm_up_critic(runner, warmup)
+        iterations -= warmup
     if args.video:
-        learn_with_clips(runner, args, env_cfg, device, log_dir, agent_cfg.max_iterations)
-    else:
-        runner.learn(num_learning_iterations=agent_cfg.max_iterations, init_at_random_ep_len=True)
+        learn_with_clips(runner, args, env_cfg, device, log_dir, iterations, random_episode_starts=warmup == 0)
+    elif iterations > 0:
+        runner.learn(num_learning_iterations=iterations, init_at_random_ep_len=warmup == 0)
     if rank is not None:
         check_rank_weights(runner, rank)
     if log_dir is not None:

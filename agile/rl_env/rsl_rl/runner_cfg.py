@@ -87,6 +87,10 @@ class PpoRunnerCfg(RunnerCommonCfg):
     """Fine-tuning: the registered task whose shipped policy the actor starts from when `train.py` is given no
     --init_policy (a distilled student's weights included: its student becomes the actor); the critic is fresh.
     None: the actor starts at random."""
+    critic_warmup_iterations: int = 0
+    """A run that starts from a trained actor (--init_policy, or `init_policy_task`) first trains only the critic
+    for this many iterations, the actor's weights held: a fresh critic's advantages are noise, and PPO updates
+    on them took a distilled student from 2% to 70% falls within 10 iterations (H200, measured)."""
 
 
 def make_recurrent(cfg: PpoRunnerCfg, rnn_type: str = "lstm", rnn_hidden_dim: int = 256,
@@ -157,7 +161,8 @@ def policy_state_key(cfg: RunnerCfg) -> str:
     return f"{policy_obs_set(cfg)}_state_dict"
 
 
-RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "clip_actions", "teacher_task", "init_policy_task")
+RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "clip_actions", "teacher_task", "init_policy_task",
+                    "critic_warmup_iterations")
 
 
 def to_rsl_rl_dict(cfg: RunnerCfg) -> dict:
