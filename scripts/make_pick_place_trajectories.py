@@ -6,15 +6,16 @@
 Each trajectory is a few hand keyframes (raised above the table's near edge, beside the cube, around the cube,
 lifted, over the goal, at the goal, pulled away, raised) solved by damped-least-squares inverse kinematics on the
 right arm of the MuJoCo model of the G1 with hands (root fixed where the frozen lower body stands), with scripted
-waist and finger angles. Between keyframes the joints ease in and out (smoothstep); the cube rides with the hand
-while it holds it. Frames are written every 0.1 s, which the loader interpolates linearly
+finger angles and a straight waist. Between keyframes the joints ease in and out (smoothstep); the cube rides with
+the hand while it holds it. Frames are written every 0.1 s, which the loader interpolates linearly
 (agile/motion/trajectory_file.py).
 
-The grasp is a side pinch: the palm (which faces the thumb, +y of the wrist-yaw link) against the cube's right
-face, the thumb behind it and the middle finger around its front; the index finger closes above the cube. Every
-frame is checked against the table and the cube in MuJoCo (`check_clearance`): no hand geom enters the table,
-none touches the cube before the grasp, and the closed thumb and middle finger press into it (their PD squeezes
-by the angle they are held short of the reference).
+The grasp is a pinch from the cube's right side, the hand upright with its palm (+y of the wrist-yaw link, where
+the thumb and the curling fingers point) facing the cube 2 cm off it: the thumb on the cube's near face, the middle
+fingertip on its far face; the index finger closes just above the cube. Every frame is checked against the table
+and the cube in MuJoCo (`check_clearance`): no hand geom enters the table, none touches the cube before the grasp,
+and the closed thumb and middle finger press into it (their PD squeezes by the angle they are held short of the
+reference). `scripts/replay_pick_place_reference.py --fixed_root --gravity_compensation` replays them in the task.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import mujoco
 import numpy as np
 
 from agile.assets.tabletop import CUBE_EDGE_M, CUBE_START_POS_M, TABLE_FRONT_EDGE_X_M, TABLE_SIZE_M
-from agile.assets.unitree_g1_with_hands import PALM_BODY, PALM_OFFSET_M, g1_with_hands_robot_cfg
+from agile.assets.unitree_g1_with_hands import PALM_BODY, g1_with_hands_robot_cfg
 from agile.motion.trajectory_file import PHASES, SHIPPED_TRAJECTORIES_DIR, Trajectory, write_trajectory
 from agile.sim.names import resolve_values
 
@@ -40,30 +41,33 @@ TRACKED_JOINTS = ["waist_yaw_joint", "waist_roll_joint", "waist_pitch_joint",
 ARM_JOINTS = TRACKED_JOINTS[3:10]
 HAND_OPEN = {"right_hand_thumb_1_joint": 0.5}
 """Fingers straight, the thumb swung back (away from the fingers), so that it passes behind the cube [rad]."""
-HAND_CLOSED = {"right_hand_thumb_1_joint": -0.05, "right_hand_thumb_2_joint": -0.4, "right_hand_middle_0_joint": 0.85,
-               "right_hand_middle_1_joint": 0.7, "right_hand_index_0_joint": 0.85, "right_hand_index_1_joint": 0.7}
-"""Around the 6 cm cube [rad]: the right thumb closes toward negative thumb_1 (its range is -1.05..0.72). Measured
-in MuJoCo with the cube at `OBJECT_IN_HAND_M`: the thumb meets the cube at thumb_1 0.1 (thumb_2 -0.4), the middle
-finger at middle_0 0.7 / middle_1 0.56; these angles are 0.15 rad further, so that the soft finger PD (kp 4 N·m/rad)
-squeezes with about 0.6 N·m per finger, some 10 N at the fingertips against the cube's 1 N weight (friction 1)."""
-OBJECT_IN_HAND_M = np.array([0.105, 0.058, -0.02])
-"""The held cube's centre in the wrist-yaw link's frame: 3.4 cm off the palm's surface (y 0.024) toward the thumb,
-between the thumb (x 0.06-0.08) and the curled fingers (x 0.13-0.16), 2 cm below the hand's centre so that the
-hand's lower edge (z -0.044) clears the table top by 6 mm while the cube rests on it."""
-WAIST_PITCH_REACHING_RAD = 0.0
-"""A slight forward lean from the approach to the release."""
-STANDING_ROOT_POS_M = np.array([-0.045, 0.0, 0.73])
-STANDING_ROOT_PITCH_RAD = -0.15
+HAND_CLOSED = {"right_hand_thumb_1_joint": -0.2, "right_hand_thumb_2_joint": -0.2, "right_hand_middle_0_joint": 1.2,
+               "right_hand_middle_1_joint": 0.7, "right_hand_index_0_joint": 1.2, "right_hand_index_1_joint": 0.7}
+"""Around the 6 cm cube [rad]. The right thumb closes toward negative thumb_1 (range -1.05..0.72; +0.5 swings it
+away from the fingers). Measured in MuJoCo with the cube at `OBJECT_IN_HAND_M`: the thumb meets the cube at
+thumb_1 0.02 (thumb_2 -0.2), the middle fingertip at middle_0 1.0 / middle_1 0.6. These angles are 0.1-0.2 rad
+further, so that the soft finger PD (kp 4 N·m/rad) squeezes with 0.4-0.9 N·m: 6-9 N per side measured in the
+replay against the cube's 1 N weight (friction 1)."""
+OBJECT_IN_HAND_M = np.array([0.105, 0.075, -0.02])
+"""The held cube's centre in the wrist-yaw link's frame: its face 2 cm off the palm's surface (y 0.024), out where
+the thumb (x 0.07) and the curled middle fingertip (x 0.14) meet it (nearer the palm, the fingers' base links hit
+the cube and push it out of the hand), 2 cm below the hand's centre so that the hand's lower edge (z -0.044)
+clears the table top by 6 mm while the cube rests on it."""
+STANDING_ROOT_POS_M = np.array([-0.03, 0.0, 0.735])
+STANDING_ROOT_PITCH_RAD = -0.05
 """Where the frozen lower body holds the pelvis standing still (command [0, 0, 0, 0.72], arms at their defaults),
-measured in this scene on CPU (scripts/replay_pick_place_reference.py): 2.5 cm below and 3 cm behind the spawn
-pose (0, 0, 0.76), tilted back 0.05 rad. The reference is solved for the robot as it stands."""
+measured in this scene on CPU: 2.5 cm below and 3 cm behind the spawn pose (0, 0, 0.76), tilted back 0.05 rad.
+The reference is solved for the robot as it stands. No scripted waist lean: the soft waist (kp 28.5 N·m/rad)
+already bends forward 0.2-0.4 rad under the reaching arm."""
 FRAME_STEP_S = 0.1
-ROTATION_WEIGHT = 0.05
+ROTATION_WEIGHT = 0.1
 """How much the inverse kinematics trades hand position [m] for the hand's orientation [rad]: a soft preference."""
 LIFT_M = 0.12
-BESIDE_CUBE_M = np.array([0.0, -0.05, 0.03])
-"""The held point's keyframe before the grasp: 5 cm right of the cube (the palm's side) and 3 cm above it."""
-RAISED_HAND_M = np.array([TABLE_FRONT_EDGE_X_M - 0.14, CUBE_START_POS_M[1] - 0.08, TABLE_SIZE_M[2] + 0.11])
+BESIDE_CUBE_M = np.array([0.0, -0.05, 0.01])
+"""The held point's keyframe before the grasp: 5 cm right of the cube (the palm's side) and 1 cm above it."""
+AWAY_FROM_CUBE_M = np.array([0.0, -0.02, 0.06])
+"""The held point's keyframe after the release: the open hand up and away from the cube put down."""
+RAISED_HAND_M = np.array([TABLE_FRONT_EDGE_X_M - 0.16, CUBE_START_POS_M[1] - 0.08, TABLE_SIZE_M[2] + 0.11])
 """The held point's keyframe on the way from the hanging arm to the table and back: in front of the table's near
 edge (the fingers reach 11 cm ahead of it) and the hand's lower edge 6 cm above the table top."""
 TABLE_CLEARANCE_M = 0.001
@@ -113,13 +117,10 @@ class G1Kinematics:
         mujoco.mj_comPos(self.model, self.data)  # mj_jac reads the COM-based frames
 
     def hand_point(self, point_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """A point given in the palm body's frame, and that frame's rotation matrix, world = env frame."""
+        """A point given in the palm body's (wrist-yaw link's) frame, and that frame's rotation matrix, world = env
+        frame."""
         rotation = self.data.xmat[self.palm_body].reshape(3, 3)
         return self.data.xpos[self.palm_body] + rotation @ point_m, rotation
-
-    def palm(self) -> tuple[np.ndarray, np.ndarray]:
-        """The palm centre [m] (the tasks' `PALM_OFFSET_M`) and the palm body's rotation matrix."""
-        return self.hand_point(np.array(PALM_OFFSET_M))
 
     def body_pose(self, body: int) -> tuple[np.ndarray, np.ndarray]:
         """Position and quaternion (x, y, z, w)."""
@@ -139,8 +140,9 @@ class G1Kinematics:
 
     def solve(self, target_m: np.ndarray, joints: dict[str, float], point_m: np.ndarray = OBJECT_IN_HAND_M,
               iterations: int = 600) -> dict[str, float]:
-        """Right-arm angles that put `point_m` (palm body frame) at `target_m` with the fingers pointing forward
-        (+x) and the thumb to the left (+y), from `joints`; damped least squares, within the joint limits."""
+        """Right-arm angles that put `point_m` (palm body frame; the held cube's centre) at `target_m` with the
+        fingers pointing forward (+x) and the thumb to the left (+y), from `joints`; damped least squares, within the
+        joint limits."""
         joints = dict(joints)
         jacp, jacr = np.zeros((3, self.model.nv)), np.zeros((3, self.model.nv))
         dofs = [self.dof_adr[n] for n in ARM_JOINTS]
@@ -172,9 +174,8 @@ def quat_from_matrix(rotation: np.ndarray) -> np.ndarray:
 def make_trajectory(kin: G1Kinematics, goal_xy_m: tuple[float, float], name: str = "") -> Trajectory:
     cube = np.array(CUBE_START_POS_M)
     goal = cube + np.array([*goal_xy_m, 0.0])
-    lean = {"waist_pitch_joint": WAIST_PITCH_REACHING_RAD}
     start = {n: kin.default[n] for n in TRACKED_JOINTS}
-    raised = {**kin.solve(RAISED_HAND_M, {**start, **lean}), **HAND_OPEN}
+    raised = {**kin.solve(RAISED_HAND_M, start), **HAND_OPEN}
     beside = {**kin.solve(cube + BESIDE_CUBE_M, raised), **HAND_OPEN}
     grasp = {**kin.solve(cube, beside), **HAND_OPEN}
     closed = {**grasp, **HAND_CLOSED}
@@ -182,7 +183,7 @@ def make_trajectory(kin: G1Kinematics, goal_xy_m: tuple[float, float], name: str
     over_goal = {**kin.solve(goal + [0, 0, LIFT_M], lifted), **HAND_CLOSED}
     at_goal = {**kin.solve(goal, over_goal), **HAND_CLOSED}
     released = {**at_goal, **{n: 0.0 for n in HAND_CLOSED}, **HAND_OPEN}
-    pulled_away = {**kin.solve(goal + BESIDE_CUBE_M, released), **HAND_OPEN}
+    pulled_away = {**kin.solve(goal + AWAY_FROM_CUBE_M, released), **HAND_OPEN}
     keyframes = [  # (time [s], phase from here to the next keyframe, joints)
         (0.0, "approach", start), (1.0, "approach", raised), (2.0, "approach", beside), (3.0, "grasp", grasp),
         (3.5, "carry", closed), (4.5, "carry", lifted), (5.5, "carry", over_goal), (6.3, "release", at_goal),

@@ -4,6 +4,7 @@ put down at the goal: the physics check under the task (can the hand hold the cu
     python scripts/replay_pick_place_reference.py                          # every shipped trajectory, 4 envs, CPU
     python scripts/replay_pick_place_reference.py --trajectories pick_place_left --num_envs 2
     python scripts/replay_pick_place_reference.py --gravity_compensation --hold_anchor
+    python scripts/replay_pick_place_reference.py --gravity_compensation --fixed_root   # the reference's feasibility
     python scripts/replay_pick_place_reference.py env.actions.upper_body_joint_pos.scale=0.1   # any env override
 
 Every env starts at trajectory frame 0. Each env step the 17 upper-body joint targets are set to the reference
@@ -15,8 +16,14 @@ The arm and waist are soft PD joints (shoulder and elbow kp 14 N·m/rad): with t
 sag under gravity. `--gravity_compensation` adds the static gravity torque over kp to the waist and arm targets
 (the torque from CPU MuJoCo on the robot's model at its measured state), so that the joints, not only their
 targets, are at the reference; the fingers keep the reference, so they squeeze with kp × the angle the cube holds
-them short of it. `--hold_anchor` steers the lower body (vx, vy) toward the reference's torso position. Both are
-actions the policy has too.
+them short of it. `--hold_anchor` steers the lower body (vx, vy, wz) toward the reference's torso position and
+heading. These are actions the policy has too.
+
+`--fixed_root` checks the reference itself: the robot's root fixed where the reference was solved (where the
+frozen lower body stands, `make_pick_place_trajectories.STANDING_ROOT_*`) and the waist targets not clipped to the
+task's ±0.1 rad (the reaching arm bends the soft waist forward 0.2-0.4 rad, more than a ±0.1 rad target can
+hold). With `--gravity_compensation` the joints then follow the reference and the hand meets the cube where the
+reference says: what is left is the grasp's physics (contacts, friction, finger force).
 
 Printed: per phase and env, the cube's height above its start, the palm-cube distance and the right-hand finger
 error; per env, the highest lift during the carry, how the episode ended and the command's episode metrics
@@ -39,13 +46,14 @@ from agile.motion.trajectory_file import PHASES
 from agile.rl_env import mdp
 from agile.rl_env.managers import SceneEntityCfg
 from agile.utils.math import quat_rotate_inverse
+from make_pick_place_trajectories import STANDING_ROOT_PITCH_RAD, STANDING_ROOT_POS_M
 
 TASK = "PickPlace-G1-v0"
 SHIPPED = ["pick_place_left", "pick_place_near_left", "pick_place_right"]
 STANDING_HEIGHT_M = 0.72
 """The frozen lower body's height command: the top of its range, where it was trained to stand."""
 ANCHOR_GAIN_PER_S = 3.0
-"""`--hold_anchor`: lower-body velocity command [m/s] per metre of torso position error (root frame)."""
+"""`--hold_anchor`: lower-body velocity command [m/s, rad/s] per metre (radian) of torso position (heading) error."""
 LIFT_MARGIN_M = 0.02
 """The task's `object_lifted` margin: the cube counts as lifted this far above its start."""
 
@@ -97,15 +105,31 @@ class GravityTorque:
         return torch.as_tensor(torque, dtype=torch.float32, device=self.robot.joint_pos.device)
 
 
-def make_env(trajectory: str, num_envs: int, device: str, overrides: list[str]):
+def fixed_root_overrides() -> list[str]:
+    """The robot's root fixed where the reference was solved; the waist targets within the joints' soft limits only."""
+    x, y, z = STANDING_ROOT_POS_M.tolist()
+    half_pitch = STANDING_ROOT_PITCH_RAD / 2
+    return ["scene.entities.robot.fixed_base=true", f"scene.entities.robot.init_pos_m=[{x},{y},{z}]",
+            f"scene.entities.robot.init_rot_xyzw=[0.0,{np.sin(half_pitch)},0.0,{np.cos(half_pitch)}]",
+            "actions.upper_body_joint_pos.joint_limits={}"]
+
+
+def heading_rad(quat_xyzw: torch.Tensor) -> torch.Tensor:
+    """(N,) the yaw of orientations (x, y, z, w) [rad]."""
+    x, y, z, w = quat_xyzw.unbind(-1)
+    return torch.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def make_env(trajectory: str, num_envs: int, device: str, overrides: list[str], fixed_root: bool = False):
     """The task with one trajectory, every episode from frame 0."""
-    overrides = [f'commands.reference.trajectory_files=["{trajectory}"]',
-                 "commands.reference.start_step_range=[0,0]", *overrides]
+    overrides = [f'commands.reference.trajectory_files=["{trajectory}"]', "commands.reference.start_step_range=[0,0]",
+                 *(fixed_root_overrides() if fixed_root else []), *overrides]
     return gym.make(TASK, num_envs=num_envs, device=device, overrides=overrides).unwrapped
 
 
-def replay(env, trajectory: str, gravity_compensation: bool = False, hold_anchor: bool = False) -> Replay:
-    """One episode of reference replay in every env (the whole 8 s unless it ends early)."""
+def replay(env, trajectory: str, gravity_compensation: bool = False, hold_anchor: bool = False,
+           num_steps: int | None = None) -> Replay:
+    """One episode of reference replay in every env: the whole 8 s unless it ends early, or `num_steps` env steps."""
     reference = env.command_manager.get_term("reference")
     upper = env.action_manager.get_term("upper_body_joint_pos")
     robot, cube = env.scene["robot"], env.scene["object"]
@@ -122,7 +146,7 @@ def replay(env, trajectory: str, gravity_compensation: bool = False, hold_anchor
 
     env.reset()
     start_z = cube.root_pos_w[:, 2].clone()
-    n, steps = env.num_envs, env.max_episode_length
+    n, steps = env.num_envs, num_steps or env.max_episode_length
     rows = {key: torch.zeros(steps, n) for key in ("phase", "lift", "palm", "finger", "valid")}
     running = torch.ones(n, dtype=torch.bool)
     ended_step, ended_by = [steps] * n, ["(still running)"] * n
@@ -140,9 +164,11 @@ def replay(env, trajectory: str, gravity_compensation: bool = False, hold_anchor
         targets_rad = reference.joint_pos[:, order]
         if gravity is not None:  # the PD's steady error under gravity is torque / kp: aim that much further
             targets_rad = targets_rad + torch.where(arm, gravity() / stiffness, 0.0)
-        if hold_anchor:
+        if hold_anchor:  # the env clips the command to the lower body's range
             error_b = quat_rotate_inverse(robot.root_quat_w, reference.anchor_pos_w - reference.robot_anchor_pos_w)
-            lower[:, :2] = ANCHOR_GAIN_PER_S * error_b[:, :2]  # the env clips it to the lower body's range
+            lower[:, :2] = ANCHOR_GAIN_PER_S * error_b[:, :2]
+            yaw_error = heading_rad(reference.anchor_quat_w) - heading_rad(reference.robot_anchor_quat_w)
+            lower[:, 2] = ANCHOR_GAIN_PER_S * torch.atan2(torch.sin(yaw_error), torch.cos(yaw_error))
         env.step(torch.cat([upper.actions_for_targets(targets_rad), lower], dim=-1))
 
         ended = env.reset_buf.cpu() & running
@@ -188,12 +214,14 @@ def main(argv=None) -> list[Replay]:
     parser.add_argument("--gravity_compensation", action="store_true",
                         help="add the static gravity torque / kp to the waist and arm targets")
     parser.add_argument("--hold_anchor", action="store_true",
-                        help="steer the lower body (vx, vy) toward the reference torso position")
+                        help="steer the lower body (vx, vy, wz) toward the reference torso position and heading")
+    parser.add_argument("--fixed_root", action="store_true",
+                        help="fix the root where the reference was solved and do not clip the waist targets")
     parser.add_argument("overrides", nargs="*", help="env config overrides, e.g. env.sim.physics_dt_s=0.002")
     args = parser.parse_args(argv)
     results = []
     for trajectory in args.trajectories:
-        env = make_env(trajectory, args.num_envs, args.device, args.overrides)
+        env = make_env(trajectory, args.num_envs, args.device, args.overrides, args.fixed_root)
         result = replay(env, trajectory, args.gravity_compensation, args.hold_anchor)
         report(result, env.step_dt)
         results.append(result)

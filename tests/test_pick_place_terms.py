@@ -104,3 +104,9 @@ def test_delta_joint_action_accumulates_clips_and_restarts_from_the_joints():
     action.reset(torch.tensor([False, True]))  # env 1 starts again from where its joints are
     action.process_actions(torch.zeros(2, 2))
     torch.testing.assert_close(action.processed_actions, torch.tensor([[-1.0, -0.2], [-0.5, 0.0]]))
+    # the action that puts the targets somewhere in one step (a replayed reference): from the targets, and from the
+    # joints in an env that starts an episode
+    action.reset(torch.tensor([False, True]))
+    targets = torch.tensor([[0.3, -0.1], [0.4, 0.15]])
+    action.process_actions(action.actions_for_targets(targets))
+    torch.testing.assert_close(action.processed_actions, targets)
