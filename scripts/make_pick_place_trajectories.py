@@ -46,8 +46,9 @@ HAND_CLOSED = {"right_hand_thumb_1_joint": -0.2, "right_hand_thumb_2_joint": -0.
 """Around the 6 cm cube [rad]. The right thumb closes toward negative thumb_1 (range -1.05..0.72; +0.5 swings it
 away from the fingers). Measured in MuJoCo with the cube at `OBJECT_IN_HAND_M`: the thumb meets the cube at
 thumb_1 0.02 (thumb_2 -0.2), the middle fingertip at middle_0 1.0 / middle_1 0.6. These angles are 0.1-0.2 rad
-further, so that the soft finger PD (kp 4 N·m/rad) squeezes with 0.4-0.9 N·m: 6-9 N per side measured in the
-replay against the cube's 1 N weight (friction 1)."""
+further, so that the soft finger PD (kp 4 N·m/rad) squeezes with 0.4-0.7 N·m: 8-9 N from the thumb and 9 N from
+the middle fingertip, measured in the replay, against the cube's 1 N weight (friction 1). With AGILE V1.3's Dex3 finger motor (kp 2, 0.76 N·m;
+agile_tasks.md section 4) the fixed-root replay lifts it as well (2 of 2, 10.4-10.6 cm)."""
 OBJECT_IN_HAND_M = np.array([0.105, 0.075, -0.02])
 """The held cube's centre in the wrist-yaw link's frame: its face 2 cm off the palm's surface (y 0.024), out where
 the thumb (x 0.07) and the curled middle fingertip (x 0.14) meet it (nearer the palm, the fingers' base links hit
