@@ -22,16 +22,26 @@ import sys
 from utils import cli, multi_agent
 
 
-def warm_up_critic(runner, iterations: int) -> None:
-    """Train `iterations` PPO iterations with the actor's weights held (its gradients off; Adam skips weights
-    without one, and the actor's unchanged outputs leave the adaptive learning rate as it is): only the critic
-    learns the returns of the policy it will judge."""
-    actor = runner.alg.get_policy()
-    print(f"[agile] critic warm-up: {iterations} iterations with the actor held")
+def set_learning_rate(algorithm, learning_rate: float) -> None:
+    """The PPO algorithm's learning rate, as its adaptive schedule sets it (the attribute and every group)."""
+    algorithm.learning_rate = learning_rate
+    for group in algorithm.optimizer.param_groups:
+        group["lr"] = learning_rate
+
+
+def warm_up_critic(runner, iterations: int, learning_rate: float) -> None:
+    """Train `iterations` PPO iterations at `learning_rate` with the actor's weights held (its gradients off;
+    Adam skips weights without one, and the actor's unchanged outputs leave the adaptive learning rate as it
+    is): only the critic learns the returns of the policy it will judge. PPO then starts at the algorithm's
+    own learning rate."""
+    actor, ppo_learning_rate = runner.alg.get_policy(), runner.alg.learning_rate
+    print(f"[agile] critic warm-up: {iterations} iterations with the actor held, learning rate {learning_rate:g}")
     actor.requires_grad_(False)
+    set_learning_rate(runner.alg, learning_rate)
     runner.learn(num_learning_iterations=iterations, init_at_random_ep_len=True)
     runner.current_learning_iteration += 1  # RSL-RL leaves the counter on the last iteration done
     actor.requires_grad_(True)
+    set_learning_rate(runner.alg, ppo_learning_rate)
 
 
 def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iterations: int,
@@ -316,7 +326,7 @@ def main(argv=None) -> None:
     if args.init_policy:
         warmup = min(getattr(agent_cfg, "critic_warmup_iterations", 0), iterations)
     if warmup > 0:
-        warm_up_critic(runner, warmup)
+        warm_up_critic(runner, warmup, agent_cfg.critic_warmup_learning_rate)
         iterations -= warmup
     if args.video:
         learn_with_clips(runner, args, env_cfg, device, log_dir, iterations, random_episode_starts=warmup == 0)

@@ -2,6 +2,7 @@
 each student distilled from it for one iteration, from its TorchScript export or its checkpoint, and the
 exported student acting as the trained one."""
 
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -89,7 +90,7 @@ def test_ppo_finetuning_starts_from_the_shipped_student_and_exports(task, tmp_pa
                     "agent.critic_warmup_iterations=1", "agent.algorithm.num_mini_batches=1")
     assert code == 0, out
     assert f"fine-tunes {FINETUNES[task]}" in out and "Mean value loss" in out, out  # PPO, not distillation
-    assert "critic warm-up: 1 iterations with the actor held" in out, out
+    assert "critic warm-up: 1 iterations with the actor held, learning rate 0.001" in out, out
     run_dir = next(next(tmp_path.iterdir()).iterdir())
     student = torch.load(ROOT / "agile" / "data" / "policy" / f"{FINETUNES[task]}.pt",
                          weights_only=True)["student_state_dict"]
@@ -104,8 +105,13 @@ def test_ppo_finetuning_starts_from_the_shipped_student_and_exports(task, tmp_pa
     for key, value in student.items():
         if not key.startswith("obs_normalizer."):
             torch.testing.assert_close(warmed["actor_state_dict"][key], value, rtol=0.0, atol=0.0)
+    # the warm-up trained the critic at 1e-3; PPO starts at the task's 1e-5 (the KL rule then moves it by 1.5x
+    # steps, so the saved optimizer's rate is 1e-5 times a power of 1.5)
+    assert warmed["optimizer_state_dict"]["param_groups"][0]["lr"] == pytest.approx(1e-3)
     tuned = torch.load(run_dir / "model_1.pt", weights_only=True)
     assert tuned["iter"] == 1
+    steps = math.log(tuned["optimizer_state_dict"]["param_groups"][0]["lr"] / 1e-5, 1.5)
+    assert abs(steps - round(steps)) < 1e-6 and abs(steps) <= 8, steps
     assert not torch.equal(tuned["actor_state_dict"]["mlp.0.weight"], student["mlp.0.weight"])
     assert not torch.equal(tuned["critic_state_dict"]["mlp.0.weight"], warmed["critic_state_dict"]["mlp.0.weight"])
     descriptor = yaml.safe_load((run_dir / "exported" / "io_descriptor.yaml").read_text())
