@@ -126,3 +126,15 @@ def test_shipped_trajectories_are_what_the_script_makes(tmp_path):
         trajectory = load_trajectory(name.removesuffix(".yaml"))
         np.testing.assert_allclose(trajectory.object_pos_m[0], CUBE_START_POS_M)
         assert [PHASES[p] for p in sorted(set(trajectory.phase))] == list(PHASES)
+
+
+def test_a_missing_path_is_an_error_and_a_bare_name_is_a_shipped_trajectory(tmp_path):
+    from agile.motion.trajectory_file import resolve_trajectory_file
+
+    # a path with a folder that does not exist is not replaced by the shipped file of the same name
+    with pytest.raises(FileNotFoundError, match=r"trajectory file '.*nope/pick_place_left.yaml' not found"):
+        resolve_trajectory_file(str(tmp_path / "nope" / "pick_place_left.yaml"))
+    assert resolve_trajectory_file("pick_place_left").name == "pick_place_left.yaml"
+    assert resolve_trajectory_file("pick_place_left.yaml").name == "pick_place_left.yaml"
+    with pytest.raises(FileNotFoundError, match=r"Shipped trajectory files: \[.*'pick_place_left'"):
+        resolve_trajectory_file("pick_place_nowhere")

@@ -28,14 +28,18 @@ def warn_if_untrusted_folder(folder: Path, what: str) -> None:
 
 
 def resolve_shipped_file(name: str | Path, shipped_dir: Path, suffix: str, kind: str) -> Path:
-    """`name` as a path, else as a file of `shipped_dir` (with or without `suffix`, e.g. ".npz"); the error names
-    `kind` (e.g. "motion") and lists the shipped ones."""
+    """`name` as a path, else, for a bare name (no folder in it), as a file of `shipped_dir` (with or without
+    `suffix`, e.g. ".npz"); the error names `kind` (e.g. "motion") and lists the shipped ones. A missing path
+    with a folder is an error, not the shipped file of the same name: that would train on another file than
+    the one the user named."""
     path = Path(name)
     if path.is_file():
         return path
+    shipped = sorted(p.stem for p in shipped_dir.glob(f"*{suffix}"))
+    if path.parent != Path("."):
+        raise FileNotFoundError(f"{kind} file '{name}' not found. Shipped {kind} files (by name): {shipped}")
     for candidate in (shipped_dir / path.name, shipped_dir / f"{path.name}{suffix}"):
         if candidate.is_file():
             return candidate
-    shipped = sorted(p.stem for p in shipped_dir.glob(f"*{suffix}"))
     raise FileNotFoundError(f"{kind} file '{name}' not found (neither a path nor a shipped {kind}). "
-                            f"Shipped {kind}s: {shipped}")
+                            f"Shipped {kind} files: {shipped}")
