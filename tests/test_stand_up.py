@@ -215,3 +215,51 @@ def test_a_row_without_states_draws_from_the_nearest_row_with_some():
     for _ in range(20):
         drawn = states.tensors["level"][states.sample(torch.tensor([0, 1, 2, 3, 7]))]
         assert drawn.tolist() == [1, 1, 1, 3, 3]
+
+
+def _hold_default(env, steps: int) -> list[torch.Tensor]:
+    """`steps` env steps holding every joint at its default position (the relative action's step to it); each
+    step's root yaw rate [rad/s]."""
+    robot, term = env.scene["robot"], env.action_manager.get_term("joint_pos")
+    default = robot.default_joint_pos[:, term.joint_ids]
+    yaw_rates = []
+    for _ in range(steps):
+        env.step(((default - robot.joint_pos[:, term.joint_ids]) / 0.1).clamp(-10.0, 10.0))
+        yaw_rates.append(robot.root_ang_vel_w[:, 2].abs())
+    return yaw_rates
+
+
+def test_the_lifts_yaw_damping_does_not_spin_an_upright_t1(stand_up_env):
+    # AGILE's 100 N·m·s/rad, applied explicitly at 5 ms, overshot on an upright T1 and spun it at 3 rad/s
+    # (about 200 N·m flipping sign each physics step) for as long as the lift was at full strength
+    env, _, _, _ = stand_up_env
+    reset_params = env.event_manager.term_cfgs["reset_base"].params
+    with torch.inference_mode():  # as the runner steps it (the PPO test may have run first)
+        env.curriculum_manager.funcs["lift"].scale.fill_(1.0)
+        reset_params["standing_ratio"] = 1.0
+        try:
+            env.reset()
+            yaw_rates = torch.stack(_hold_default(env, 25))
+            assert yaw_rates.mean().item() < 0.5, yaw_rates.mean(dim=0)
+        finally:
+            reset_params["standing_ratio"] = 0.1
+            env.reset()
+
+
+def test_illegal_contacts_cost_a_lying_t1_once_not_per_body(stand_up_env):
+    # AGILE's illegal_contact is Isaac Lab's termination function: whether any listed body touches (1), not how many
+    env, _, _, _ = stand_up_env
+    reset_params = env.event_manager.term_cfgs["reset_base"].params
+    with torch.inference_mode():
+        reset_params["standing_ratio"] = 0.0
+        try:
+            env.reset()
+            costs = []
+            for _ in range(10):
+                env.step(torch.zeros(env.num_envs, env.action_manager.total_action_dim))
+                costs.append(env.reward_manager.step_reward["illegal_contacts"].clone())
+            costs = torch.stack(costs)
+            assert set(costs.unique().tolist()) <= {0.0, -1.0} and (costs == -1.0).any(), costs.unique()
+        finally:
+            reset_params["standing_ratio"] = 0.1
+            env.reset()

@@ -209,6 +209,12 @@ def undesired_contacts(env, force_threshold_n: float, sensor_cfg: SceneEntityCfg
     return torch.sum(_recent_contact(env, sensor_cfg, force_threshold_n), dim=1).float()
 
 
+def illegal_contact(env, force_threshold_n: float, sensor_cfg: SceneEntityCfg) -> torch.Tensor:
+    """1.0 where any selected body is in recent contact, else 0 (Isaac Lab's `illegal_contact` termination used as a
+    reward, as AGILE StandUp-T1 does: a lying robot costs the weight once, not once per body on the ground)."""
+    return _recent_contact(env, sensor_cfg, force_threshold_n).any(dim=1).float()
+
+
 def feet_slip(env, sensor_cfg: SceneEntityCfg, asset_cfg: SceneEntityCfg,
               force_threshold_n: float = 1.0) -> torch.Tensor:
     """Sum over feet in recent contact of the foot's horizontal speed [m/s].

@@ -41,7 +41,13 @@ SCENE.max_init_terrain_level = 0  # AGILE: every env starts on row 0; the curric
 class ActionsCfg:
     # all 23 joints, each target a step of 0.1 x action from where the joint is, at most 1 rad
     joint_pos = mdp.RelativeJointPositionActionCfg(joint_names=[".*"], scale=0.1, clip=(-1.0, 1.0))
-    lift = mdp.LiftActionCfg(body_name="H2", target_height_m=STANDING_HEIGHT_M, height_sensor=BASE_HEIGHT_SENSOR)
+    # yaw damping 25 N·m·s/rad, not AGILE's 100: applied explicitly at 5 ms, 100 (and 60) overshoot on an upright T1
+    # (effective yaw inertia about 0.1-0.15 kg·m²) and spin it at 3.0 rad/s under about 200 N·m flipping each physics
+    # step, while the lift is at full strength (CPU, 8 envs: the `not_moving` cost of a T1 standing at rest -6.0 per
+    # step instead of -0.18, which makes standing up unrewarding); 40 was the largest measured stable value, 25 keeps
+    # a margin and still stops a lying T1's turn (docs/stand_up.md "Audit (CPU)")
+    lift = mdp.LiftActionCfg(body_name="H2", target_height_m=STANDING_HEIGHT_M, height_sensor=BASE_HEIGHT_SENSOR,
+                             damping_torque_nm_s_per_rad=25.0)
 
 
 @configclass
@@ -112,7 +118,9 @@ class RewardsCfg:
                                                  "base_body_cfg": SceneEntityCfg("robot", body_names="Trunk")}))
     orientation = RewTerm(func=mdp.flat_orientation_l2, weight=-5.0)
     ang_vel_xy = RewTerm(func=mdp.ang_vel_xy_l2, weight=-0.5)
-    illegal_contacts = RewTerm(func=mdp.undesired_contacts, weight=-1.0,
+    # AGILE's `illegal_contact` (Isaac Lab's termination function): 1 if any of these bodies touches, not a count
+    # (the count cost a robot lying on the ground -4.9 per step on CPU, against AGILE's -1)
+    illegal_contacts = RewTerm(func=mdp.illegal_contact, weight=-1.0,
                                params={"force_threshold_n": 1.0,
                                        "sensor_cfg": SceneEntityCfg(CONTACT_SENSOR, body_names=ILLEGAL_CONTACT_BODIES)})
     # -- effort and smoothness
