@@ -126,18 +126,23 @@ def check_rank_weights(runner, rank) -> None:
         print(f"[agile] all {rank.world_size} ranks hold the same weights", flush=True)
 
 
+def as_actor_checkpoint(checkpoint: dict, path: str) -> dict:
+    """The --init_policy checkpoint (contents of `path`) with its policy as the actor: a PPO checkpoint as it is,
+    a distilled student's (rsl-rl's "student_state_dict") with its student as the actor (fine-tuning by PPO)."""
+    if "actor_state_dict" in checkpoint:
+        return checkpoint
+    if "student_state_dict" not in checkpoint:
+        cli.fail(f"--init_policy {path}: no actor_state_dict or student_state_dict in it (it holds "
+                 f"{sorted(checkpoint)})")
+    return {"actor_state_dict": checkpoint["student_state_dict"], "iter": checkpoint.get("iter", 0),
+            "infos": checkpoint.get("infos")}
+
+
 def initial_actor_checkpoint(checkpoint: dict, path: str, log_dir: str, action_std: float | None) -> dict:
-    """The --init_policy checkpoint (contents of `path`) copied into the run's folder as init_policy.pt (where the
-    run started stays with it), with the actor's action noise set to `action_std` when given. A distilled
-    student's checkpoint (rsl-rl's "student_state_dict") gives its student as the actor: fine-tuning by PPO."""
+    """The --init_policy checkpoint (`as_actor_checkpoint`'s) copied into the run's folder as init_policy.pt (where
+    the run started stays with it), with the actor's action noise set to `action_std` when given."""
     import torch
 
-    if "actor_state_dict" not in checkpoint:
-        if "student_state_dict" not in checkpoint:
-            cli.fail(f"--init_policy {path}: no actor_state_dict or student_state_dict in it (it holds "
-                     f"{sorted(checkpoint)})")
-        checkpoint = {"actor_state_dict": checkpoint["student_state_dict"], "iter": checkpoint.get("iter", 0),
-                      "infos": checkpoint.get("infos")}
     if action_std is not None:
         actor = checkpoint["actor_state_dict"]
         if "distribution.std_param" in actor:
@@ -271,7 +276,10 @@ def main(argv=None) -> None:
     if args.init_action_std is not None and (not args.init_policy or not args.init_action_std > 0):
         cli.fail("--init_action_std needs --init_policy and a positive value "
                  "(a new run's initial std is agent.actor.distribution_cfg.init_std)")
-    init_contents = cli.read_checkpoint(args.init_policy, args.trust_checkpoint) if args.init_policy else None
+    init_contents = None
+    if args.init_policy:  # refused before the env is built when it holds no policy
+        init_contents = as_actor_checkpoint(cli.read_checkpoint(args.init_policy, args.trust_checkpoint),
+                                            args.init_policy)
     teacher_path = distillation_teacher(args, agent_cfg, resuming=resume_path is not None)
     if args.inject_nan_actions is not None:
         share, every = args.inject_nan_actions

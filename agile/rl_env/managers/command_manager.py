@@ -39,6 +39,14 @@ class EpisodeMean:
             buf.masked_fill_(env_mask, 0.0)
 
 
+def keep_episode_end(value: torch.Tensor, last: torch.Tensor, env_mask: torch.Tensor,
+                     ended_count: torch.Tensor) -> torch.Tensor:
+    """The masked envs' metric `value` (N,) copied into `last` (their last episode's); returns its mean over
+    them (`ended_count`, at least 1), the "Metrics/..." log entry. In place and on the device: capture-safe."""
+    last.copy_(torch.where(env_mask, value, last))
+    return torch.where(env_mask, value, 0.0).sum() / ended_count
+
+
 @dataclass(frozen=True)
 class ReferencePose:
     """The whole-body pose a command asks of one articulation, per env: what a recorder draws as a kinematic copy
@@ -202,8 +210,7 @@ class CommandManager:
                 if last is None:
                     raise RuntimeError(f"command '{name}': metrics['{key}'] appeared after the term was built; "
                                        "create every metric in the term's __init__ (a captured step cannot grow)")
-                last.copy_(torch.where(env_mask, value, last))
-                log[f"Metrics/{name}/{key}"] = torch.where(env_mask, value, 0.0).sum() / count
+                log[f"Metrics/{name}/{key}"] = keep_episode_end(value, last, env_mask, count)
         return log
 
     def reset(self, env_mask: torch.Tensor) -> dict:

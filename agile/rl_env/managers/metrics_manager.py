@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import torch
 
-from agile.rl_env.managers.command_manager import EpisodeMean
+from agile.rl_env.managers.command_manager import EpisodeMean, keep_episode_end
 from agile.rl_env.managers.manager_base import collect_terms, prepare_term, reset_term
 from agile.rl_env.managers.term_cfg import METRIC_WHEN, MetricTerm
 from agile.utils.config import ConfigError, callable_name
@@ -72,9 +72,7 @@ class MetricsManager:
         count = env_mask.sum().clamp(min=1)
         log = {}
         for name, value in self.metrics.items():
-            last = self.last_episode_metrics[name]
-            last.copy_(torch.where(env_mask, value, last))
-            log[f"Metrics/{name}"] = torch.where(env_mask, value, 0.0).sum() / count
+            log[f"Metrics/{name}"] = keep_episode_end(value, self.last_episode_metrics[name], env_mask, count)
         return log
 
     def reset(self, env_mask: torch.Tensor) -> dict:
