@@ -91,7 +91,7 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
 
 def distributed_rank(args):
     """This process's rank when torchrun started it (with --distributed), else None; sets args.device to its own."""
-    from agile.rl_env.rsl_rl.distributed import rank_device, rank_from_env
+    from agile.rl_env.rsl_rl.distributed import make_current, rank_device, rank_from_env
 
     rank = rank_from_env()
     if rank is None:
@@ -106,6 +106,7 @@ def distributed_rank(args):
         args.device = rank_device(rank, args.device)
     except ValueError as err:
         cli.fail(str(err))
+    make_current(args.device)
     return rank
 
 

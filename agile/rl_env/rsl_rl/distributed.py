@@ -43,6 +43,18 @@ def rank_device(rank: Rank, requested: str | None) -> str:
     return expected
 
 
+def make_current(device: str) -> None:
+    """Make a rank's GPU the process's current device for torch and Warp before anything is built: an allocation
+    or launch that names no device (in Newton, MuJoCo Warp, torch's defaults) then lands on this rank's GPU,
+    not on cuda:0 beside rank 0's envs. Nothing to do on the CPU."""
+    if not device.startswith("cuda"):
+        return
+    import warp as wp
+
+    torch.cuda.set_device(device)
+    wp.set_device(device)
+
+
 def init_cpu_process_group(rank: Rank) -> None:
     """rsl-rl sets up NCCL for CUDA ranks itself; CPU ranks (tests, CPU clusters) use gloo."""
     torch.distributed.init_process_group(backend="gloo", rank=rank.rank, world_size=rank.world_size)
