@@ -54,6 +54,16 @@ def test_pre_learn_step_reset_and_one_ppo_iteration(env_and_agent, tmp_path):
     assert not {name: int(n) for name, n in env.reward_manager.nonfinite_count.items() if int(n)}
 
 
+def test_fallen_states_are_collected_without_the_lift(env_and_agent):
+    # the lift follows the height command; left on while the robots fall, it held them up towards the command the
+    # build left (0.92 m): pelvises 0.5-0.7 m up, most still swinging and dropped. Off, they lie (pelvis ~0.1 m).
+    env, _ = env_and_agent
+    states = env.event_manager.get_term("reset_base").states
+    pelvis_m = states.tensors["root_pos_env_m"][:, 2]  # above the cell's origin, on the terrain
+    assert len(states) >= 4 and (pelvis_m < 0.35).all(), pelvis_m
+    assert env.action_manager.get_term("lift").scale.item() == 1.0  # put back after the collection
+
+
 def test_command_range_shares_and_settle_time(env_and_agent):
     env, _ = env_and_agent
     command = env.command_manager.get_term("height")
@@ -118,6 +128,9 @@ def _lift_force_n(env, target_m: list[float], vel_z_mps: float) -> tuple[torch.T
 
 def test_command_following_lift(env_and_agent):
     env, _ = env_and_agent
+    reset_params = env.event_manager.term_cfgs["reset_base"].params
+    standing_ratio = reset_params["standing_ratio"]
+    reset_params["standing_ratio"] = 1.0  # every robot at its default pose, its tracked point about 1.0 m up
     env.reset()
     robot, lift = env.scene["robot"], env.action_manager.get_term("lift")
     lift.scale_forces(1.0)
@@ -146,4 +159,5 @@ def test_command_following_lift(env_and_agent):
     force, height = _lift_force_n(env, [0.05, 0.05, 0.05], 0.0)
     assert force.tolist() == pytest.approx([-0.45 * weight_n] * 3, rel=1e-4)
     lift.scale_forces(1.0)
+    reset_params["standing_ratio"] = standing_ratio
     env.reset()

@@ -15,8 +15,9 @@ from pathlib import Path
 
 import torch
 
-FORMAT_VERSION = 1
-"""Bumped whenever what is stored or how it is collected changes: old files are then rebuilt."""
+FORMAT_VERSION = 2
+"""Bumped whenever what is stored or how it is collected changes: old files are then rebuilt. 2: collected with the
+training aids off (a HeightTracking-G1 cache of version 1 holds robots hanging from the lift)."""
 MAGIC = "agile-fallen-states"
 
 

@@ -6,7 +6,8 @@ Collection runs in every env at once on the device: for each terrain row (and `n
 envs are spread over the row's columns, their roots get a random yaw, a roll and pitch within
 `roll_pitch_range_rad` and random velocities, their joints random positions within the soft limits and random
 velocities; then `settle_time_s` of physics with a zero action (`ManagerBasedRLEnv.simulate`: no terminations, no
-resets). The states are kept on the device and cached on disk (`fallen_states.cache`).
+resets) and the training aids (lift, harness) off. The states are kept on the device and cached on disk
+(`fallen_states.cache`).
 """
 
 from __future__ import annotations
@@ -145,20 +146,33 @@ def collect_fallen_states(env, cfg: FallenStateDatasetCfg, robot_name: str = "ro
     settle_steps = max(1, round(cfg.settle_time_s / env.step_dt))
     pieces: dict[str, list[torch.Tensor]] = {name: [] for name in STATE_FIELDS}
     drops = [level for level in range(env.sim.max_terrain_level) for _ in range(cfg.num_spawns_per_level)]
-    for level in tqdm(drops, desc="fallen states", unit="drop", dynamic_ncols=True):  # the ETA
-        _drop(env, robot, cfg, level)
-        env.simulate(zero_action, settle_steps)
-        if torch.device(env.device).type == "cuda":  # the bar times finished drops, not launched ones
-            torch.cuda.synchronize(env.device)
-        root_pos_env = robot.root_pos_w - env.env_origins
-        root_pos_env[:, :2] = root_pos_env[:, :2].clamp(-half_cell_m, half_cell_m)
-        pieces["root_pos_env_m"].append(root_pos_env)
-        pieces["root_quat_xyzw"].append(robot.root_pose_w[:, 3:7].clone())
-        pieces["root_vel_w"].append(robot.root_com_vel_w.clone())
-        pieces["joint_pos_rad"].append(robot.joint_pos.clone())
-        pieces["joint_vel_radps"].append(robot.joint_vel.clone())
-        pieces["level"].append(env.sim.terrain_levels.clone())
-        pieces["terrain_type"].append(env.sim.terrain_types.clone())
+    # training aids (lift, harness) off while the robots fall: the states are how a robot lies by itself. A lift that
+    # follows a height command (HeightTracking-G1) would otherwise hold every robot towards the command it had at
+    # the build: 8 G1s on CPU, one drop per row, tracked point 0.66-0.91 m up and 41 of 64 swinging faster than
+    # 0.5 m/s (dropped); with it off 0.04-0.18 m and none dropped. Each aid's strength is put back afterwards.
+    aids = [term for term in map(env.action_manager.get_term, env.action_manager.active_terms)
+            if hasattr(term, "scale_forces")]  # mdp BodyAidAction (not imported: mdp imports this module)
+    strengths = [aid.scale.clone() for aid in aids]
+    try:
+        for aid in aids:
+            aid.scale_forces(0.0)
+        for level in tqdm(drops, desc="fallen states", unit="drop", dynamic_ncols=True):  # the ETA
+            _drop(env, robot, cfg, level)
+            env.simulate(zero_action, settle_steps)
+            if torch.device(env.device).type == "cuda":  # the bar times finished drops, not launched ones
+                torch.cuda.synchronize(env.device)
+            root_pos_env = robot.root_pos_w - env.env_origins
+            root_pos_env[:, :2] = root_pos_env[:, :2].clamp(-half_cell_m, half_cell_m)
+            pieces["root_pos_env_m"].append(root_pos_env)
+            pieces["root_quat_xyzw"].append(robot.root_pose_w[:, 3:7].clone())
+            pieces["root_vel_w"].append(robot.root_com_vel_w.clone())
+            pieces["joint_pos_rad"].append(robot.joint_pos.clone())
+            pieces["joint_vel_radps"].append(robot.joint_vel.clone())
+            pieces["level"].append(env.sim.terrain_levels.clone())
+            pieces["terrain_type"].append(env.sim.terrain_types.clone())
+    finally:
+        for aid, strength in zip(aids, strengths):
+            aid.scale_forces(strength)
     env.sim.set_terrain_levels(torch.zeros(env.num_envs, dtype=torch.long, device=env.device))
     states = {name: torch.cat(values) for name, values in pieces.items()}
     keep = torch.ones(states["level"].shape, dtype=torch.bool, device=env.device)
