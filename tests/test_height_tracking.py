@@ -161,3 +161,45 @@ def test_command_following_lift(env_and_agent):
     lift.scale_forces(1.0)
     reset_params["standing_ratio"] = standing_ratio
     env.reset()
+
+
+def _restore_after(env, standing_ratio: float, lift_scale: float):
+    """Reset the env with this standing share and lift strength (the curriculum's, which every reset hands to the
+    lift); the caller puts the defaults back with a second call."""
+    env.event_manager.term_cfgs["reset_base"].params["standing_ratio"] = standing_ratio
+    env.curriculum_manager.funcs["adaptive_lift"].scale.fill_(lift_scale)
+    env.reset()
+
+
+def test_the_lifts_yaw_damping_does_not_spin_an_upright_g1(env_and_agent):
+    # AGILE's 100 N·m·s/rad, applied explicitly at 5 ms on the root, spun an upright G1 at rest at 5.4 rad/s for
+    # as long as the lift is at full strength (the start of training)
+    env, _ = env_and_agent
+    robot = env.scene["robot"]
+    with torch.inference_mode():
+        try:
+            _restore_after(env, standing_ratio=1.0, lift_scale=1.0)
+            yaw_rates = []
+            for step in range(25):
+                env.step(torch.zeros(env.num_envs, env.action_manager.total_action_dim))
+                if step >= 5:
+                    yaw_rates.append(robot.root_ang_vel_w[:, 2].abs())
+            assert torch.stack(yaw_rates).mean().item() < 0.5, torch.stack(yaw_rates).mean(dim=0)
+        finally:
+            _restore_after(env, standing_ratio=0.5, lift_scale=1.0)
+
+
+def test_illegal_contacts_cost_a_lying_g1_once_not_per_wrist_link(env_and_agent):
+    # AGILE's illegal_contact: whether any wrist link touches (-2), not how many (a lying G1: -4 with two links down)
+    env, _ = env_and_agent
+    with torch.inference_mode():
+        try:
+            _restore_after(env, standing_ratio=0.0, lift_scale=0.0)
+            costs = []
+            for _ in range(10):
+                env.step(torch.zeros(env.num_envs, env.action_manager.total_action_dim))
+                costs.append(env.reward_manager.step_reward["illegal_contacts"].clone())
+            costs = torch.stack(costs)
+            assert set(costs.unique().tolist()) <= {0.0, -2.0} and (costs == -2.0).any(), costs.unique()
+        finally:
+            _restore_after(env, standing_ratio=0.5, lift_scale=1.0)

@@ -55,10 +55,13 @@ class ActionsCfg:
     # all 29 joints around the default pose, AGILE's G1 action scale (0.25·effort/kp), targets within ±6 rad
     joint_pos = mdp.JointPositionActionCfg(joint_names=[".*"], scale=ACTION_SCALE, use_default_offset=True,
                                            clip=(-6.0, 6.0))
-    # on the torso, towards the command: k 5000 N/m, d 2500 N·s/m, at most 0.9 of G1's weight, up or down
+    # on the torso, towards the command: k 5000 N/m, d 2500 N·s/m, at most 0.9 of G1's weight, up or down. Yaw
+    # damping 25 N·m·s/rad on the root, not AGILE's 100 on the torso: applied explicitly every 5 ms, 100 (and 60) on
+    # the root spun an upright G1 at rest at 5.4 rad/s; 100 on the torso (AGILE) held it but spun a lying one up from
+    # 2 to 3.3 rad/s in 0.5 s; 40 was stable, 25 keeps a margin, as StandUp-T1 (CPU, 8 envs, lift at full strength)
     lift = mdp.LiftActionCfg(body_name="torso_link", stiffness_force_n_per_m=5000.0, damping_force_n_s_per_m=2500.0,
                              vertical_damping=True, force_limit_weight_fraction=0.9, allow_push_down=True,
-                             damping_torque_nm_s_per_rad=100.0, torque_limit_nm=250.0, height_command=COMMAND,
+                             damping_torque_nm_s_per_rad=25.0, torque_limit_nm=250.0, height_command=COMMAND,
                              height_sensor=BASE_HEIGHT_SENSOR)
 
 
@@ -158,7 +161,9 @@ class RewardsCfg:
     forward_pitch = RewTerm(func=mdp.body_orientation_penalty, weight=-10.0,
                             params={"asset_cfg": TORSO, "axis": "pitch", "direction": "forward", "kernel": "l2"})
     # -- contacts and feet
-    illegal_contacts = RewTerm(func=mdp.undesired_contacts, weight=-2.0,
+    # AGILE's `illegal_contact`: 1 if any wrist link touches, not a count (the count cost a lying G1 up to -4 per
+    # step on CPU, two wrist links down, against AGILE's -2)
+    illegal_contacts = RewTerm(func=mdp.illegal_contact, weight=-2.0,
                                params={"force_threshold_n": 1.0,
                                        "sensor_cfg": SceneEntityCfg(CONTACT_SENSOR, body_names=".*wrist.*")})
     feet_distance = RewTerm(func=mdp.feet_distance_3d, weight=-5.0, params=_feet_distance())
