@@ -27,7 +27,7 @@ import mujoco
 import numpy as np
 
 from agile.assets.tabletop import CUBE_EDGE_M, CUBE_START_POS_M, TABLE_FRONT_EDGE_X_M, TABLE_SIZE_M
-from agile.assets.unitree_g1_with_hands import PALM_BODY, g1_with_hands_robot_cfg
+from agile.assets.unitree_g1_with_hands import GRASP_POINT_M, PALM_BODY, g1_with_hands_robot_cfg
 from agile.motion.trajectory_file import PHASES, SHIPPED_TRAJECTORIES_DIR, Trajectory, write_trajectory
 from agile.sim.names import resolve_values
 
@@ -49,11 +49,8 @@ thumb_1 0.02 (thumb_2 -0.2), the middle fingertip at middle_0 1.0 / middle_1 0.6
 further, so that the soft finger PD (kp 4 N·m/rad) squeezes with 0.4-0.7 N·m: 8-9 N from the thumb and 9 N from
 the middle fingertip, measured in the replay, against the cube's 1 N weight (friction 1). With AGILE V1.3's Dex3 finger motor (kp 2, 0.76 N·m;
 agile_tasks.md section 4) the fixed-root replay lifts it as well (2 of 2, 10.4-10.6 cm)."""
-OBJECT_IN_HAND_M = np.array([0.105, 0.075, -0.02])
-"""The held cube's centre in the wrist-yaw link's frame: its face 2 cm off the palm's surface (y 0.024), out where
-the thumb (x 0.07) and the curled middle fingertip (x 0.14) meet it (nearer the palm, the fingers' base links hit
-the cube and push it out of the hand), 2 cm below the hand's centre so that the hand's lower edge (z -0.044)
-clears the table top by 6 mm while the cube rests on it."""
+OBJECT_IN_HAND_M = np.array(GRASP_POINT_M)
+"""The held cube's centre in the wrist-yaw link's frame: the hand's grasp point (see its docstring)."""
 STANDING_ROOT_POS_M = np.array([-0.03, 0.0, 0.735])
 STANDING_ROOT_PITCH_RAD = -0.05
 """Where the frozen lower body holds the pelvis standing still (command [0, 0, 0, 0.72], arms at their defaults),

@@ -41,7 +41,7 @@ import numpy as np
 import torch
 
 import agile.tasks  # noqa: F401  (registers the tasks)
-from agile.assets.unitree_g1_with_hands import PALM_BODY, PALM_OFFSET_M
+from agile.assets.unitree_g1_with_hands import PALM_BODY, GRASP_POINT_M
 from agile.motion.trajectory_file import PHASES
 from agile.rl_env import mdp
 from agile.rl_env.managers import SceneEntityCfg
@@ -153,7 +153,7 @@ def replay(env, trajectory: str, gravity_compensation: bool = False, hold_anchor
     metrics = {key: [float("nan")] * n for key in env.last_episode_metrics}
     for step in range(steps):
         # recorded before the step: after it, an ended env has been reset already
-        palm_pos, _ = mdp.palm_pose_w(env, palm, PALM_OFFSET_M)
+        palm_pos, _ = mdp.palm_pose_w(env, palm, GRASP_POINT_M)
         rows["phase"][step] = reference.phase.float().cpu()
         rows["lift"][step] = (cube.root_pos_w[:, 2] - start_z).cpu()
         rows["palm"][step] = torch.linalg.norm(cube.root_pos_w - palm_pos, dim=-1).cpu()

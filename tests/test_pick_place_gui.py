@@ -9,7 +9,7 @@ from browser import free_port
 
 import agile.tasks  # noqa: F401
 from agile.gui import ActionSliders, BrowserViewer
-from agile.assets.unitree_g1_with_hands import PALM_BODY, PALM_OFFSET_M
+from agile.assets.unitree_g1_with_hands import PALM_BODY, GRASP_POINT_M
 from agile.rl_env import mdp
 from agile.rl_env.managers import SceneEntityCfg
 
@@ -52,7 +52,7 @@ def test_object_sliders_pose_the_cube_and_the_palm_reward_follows(gui):
     far = viewer.rewards.latest()["palm_to_object"]
     palm = SceneEntityCfg("robot", body_names=PALM_BODY)
     palm.resolve(env)
-    palm_pos, _ = mdp.palm_pose_w(env, palm, PALM_OFFSET_M)
+    palm_pos, _ = mdp.palm_pose_w(env, palm, GRASP_POINT_M)
     offset = (palm_pos[0] - env.env_origins[0]) - objects.default_pos
     for axis in range(3):  # the cube to the palm
         objects.sliders[axis].value = float(objects.default_pos[axis] + offset[axis])

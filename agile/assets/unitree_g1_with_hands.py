@@ -19,9 +19,14 @@ UPPER_BODY_JOINTS = [*WAIST_JOINTS, *RIGHT_ARM_JOINTS, *RIGHT_HAND_JOINTS]
 """The joints the pick-and-place policy drives and the trajectories give (3 waist + 7 arm + 7 hand = 17)."""
 HAND_JOINTS = ".*_hand_.*_joint"
 PALM_BODY = "right_wrist_yaw_link"
-PALM_OFFSET_M = (0.11, 0.03, 0.0)
-"""The right palm's centre in the wrist-yaw link's frame: between the thumb (+y) and the two fingers, 11 cm
-along the fingers (measured on the model: finger bases at x 0.12, thumb base at y 0.06)."""
+GRASP_POINT_M = (0.105, 0.075, -0.02)
+"""The right hand's grasp point in the wrist-yaw link's frame: where the held cube's centre sits in the pick-and-place
+reference's pinch (`make_pick_place_trajectories.py` solves every frame for it): its face 2 cm off the palm's surface,
+between the thumb (x 0.07) and the curled middle fingertip (x 0.14), 2 cm below the hand's centre. The hand-object
+reward (AGILE's, highest at distance 0) and observation use this point, so they peak when the cube is held. With
+the palm's centre (0.11, 0.03, 0), 4.9 cm from the held cube's centre, the reward paid a grasp 0.79 and a palm pressed
+on the cube's top 0.96: a policy trained 600 iterations on it (H200) pressed its palm 2 cm from the cube's centre
+in every episode and never lifted it (0.5 cm at most, CPU eval, 4 episodes)."""
 
 HAND_GAINS = dict(stiffness=4.0, damping=0.2, effort_limit=2.45, velocity_limit=10.0, armature=0.001)
 """Dex3-1 finger motors: 2.45 N·m peak; soft, so that a closed hand squeezes rather than slams."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from agile.assets.unitree_g1_with_hands import PALM_OFFSET_M, RIGHT_ARM_JOINTS, RIGHT_HAND_JOINTS
+from agile.assets.unitree_g1_with_hands import GRASP_POINT_M, RIGHT_ARM_JOINTS, RIGHT_HAND_JOINTS
 from agile.rl_env import ManagerBasedRLEnvCfg, mdp
 from agile.rl_env.managers import DoneTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg
 from agile.sim.scene_cfg import SceneCfg
@@ -49,7 +49,7 @@ class ActionsCfg:
 @configclass
 class PolicyObsCfg(ObsGroup):
     joint_pos = ObsTerm(func=mdp.joint_pos_rel)
-    object_to_hand_pos_b = ObsTerm(func=mdp.object_to_hand_pos_b, params={"palm_cfg": PALM, "offset_m": PALM_OFFSET_M})
+    object_to_hand_pos_b = ObsTerm(func=mdp.object_to_hand_pos_b, params={"palm_cfg": PALM, "offset_m": GRASP_POINT_M})
 
 
 @configclass
@@ -61,7 +61,7 @@ class ObservationsCfg:
 class RewardsCfg:
     is_alive = RewTerm(func=mdp.is_alive, weight=1.0)
     palm_to_object = RewTerm(func=mdp.palm_object_distance_exp, weight=1.0,
-                             params={"std_m": 0.1, "palm_cfg": PALM, "offset_m": PALM_OFFSET_M})
+                             params={"std_m": 0.1, "palm_cfg": PALM, "offset_m": GRASP_POINT_M})
     lifting_object = RewTerm(func=mdp.object_is_lifted, weight=0.5, params={"minimal_height_m": LIFTED_HEIGHT_M})
     joint_pos_limits = RewTerm(func=mdp.joint_pos_limits, weight=-10.0,
                                params={"asset_cfg": SceneEntityCfg("robot", joint_names=RIGHT_ARM_AND_HAND)})

@@ -13,7 +13,7 @@ The builder `pick_place_env_cfg` makes the task; `debug_env_cfg.py` makes its de
 from __future__ import annotations
 
 from agile.assets.tabletop import CUBE_START_POS_M, cube_cfg, table_cfg
-from agile.assets.unitree_g1_with_hands import (PALM_BODY, PALM_OFFSET_M, UPPER_BODY_JOINTS,
+from agile.assets.unitree_g1_with_hands import (PALM_BODY, GRASP_POINT_M, UPPER_BODY_JOINTS,
                                                 g1_with_hands_robot_cfg)
 from agile.rl_env import ManagerBasedRLEnvCfg, mdp
 from agile.rl_env.managers import CurrTerm, DoneTerm, EventTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg, Unoise
@@ -80,7 +80,7 @@ class PolicyObsCfg(ObsGroup):
                                   noise=Unoise(-0.05, 0.05))
     motion_joint_pos_delta = ObsTerm(func=mdp.motion_joint_pos_delta, params={"command_name": REFERENCE},
                                      noise=Unoise(-0.05, 0.05))
-    object_to_hand_pos_b = ObsTerm(func=mdp.object_to_hand_pos_b, params={"palm_cfg": PALM, "offset_m": PALM_OFFSET_M},
+    object_to_hand_pos_b = ObsTerm(func=mdp.object_to_hand_pos_b, params={"palm_cfg": PALM, "offset_m": GRASP_POINT_M},
                                    noise=Unoise(-0.02, 0.02))
     object_pos_error = ObsTerm(func=mdp.object_pos_error, params={"command_name": REFERENCE},
                                noise=Unoise(-0.02, 0.02))
@@ -117,7 +117,7 @@ class RewardsCfg:
                                   params={"command_name": REFERENCE, "std": 0.3})
     hand_object_distance = RewTerm(func=mdp.hand_object_distance_tracking_exp, weight=1.0,
                                    params={"command_name": REFERENCE, "std": 0.1, "release_decay_steps": 50,
-                                           "palm_cfg": PALM, "offset_m": PALM_OFFSET_M})
+                                           "palm_cfg": PALM, "offset_m": GRASP_POINT_M})
     lifting_object = RewTerm(func=mdp.object_is_lifted, weight=0.5, params={"minimal_height_m": LIFTED_HEIGHT_M})
     nominal_posture_at_end = RewTerm(func=mdp.nominal_posture_at_end_exp, weight=1.0,
                                      params={"command_name": REFERENCE, "progress_threshold": 0.95, "std": 0.5})
