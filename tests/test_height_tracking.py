@@ -203,3 +203,41 @@ def test_illegal_contacts_cost_a_lying_g1_once_not_per_wrist_link(env_and_agent)
             assert set(costs.unique().tolist()) <= {0.0, -2.0} and (costs == -2.0).any(), costs.unique()
         finally:
             _restore_after(env, standing_ratio=0.5, lift_scale=1.0)
+
+
+def test_tracked_point_standing_crouched_and_lying(env_and_agent):
+    # AGILE's tracked point: 0.2 m above the torso origin along the torso's z, the torso origin 0.044 m above the
+    # pelvis (Unitree's waist joints, in AGILE's model as in Menagerie's). Standing in the default pose it reads
+    # about 1.00 m, not the 0.92 m top of the range ("stand", AGILE's 0.72 m pelvis + 0.2 m): 0.06-0.1 m above it,
+    # within the 0.1 m the terrain curriculum and the lift's decay count as tracked. The top itself is an upright
+    # crouch (hips -0.6, knees 1.2, ankles -0.6 rad: pelvis about 0.68 m); lying reads about 0.1 m.
+    env, _ = env_and_agent
+    robot, command = env.scene["robot"], env.command_manager.get_term("height")
+    top_m = command.cfg.ranges.height_m[1]
+    pelvis = robot.find_bodies("pelvis")[0][0]
+    feet = robot.find_bodies(["left_ankle_roll_link", "right_ankle_roll_link"])[0]
+    everyone = torch.ones(env.num_envs, dtype=torch.bool)
+    with torch.inference_mode():
+        try:
+            _restore_after(env, standing_ratio=1.0, lift_scale=0.0)
+            above_pelvis_m = command.tracked_point_pos_w()[:, 2] - robot.body_pose_w[:, pelvis, 2]
+            assert above_pelvis_m.tolist() == pytest.approx([0.244] * env.num_envs, abs=0.002)
+            above_top_m = command.measured_height_m - top_m
+            assert ((above_top_m > 0.05) & (above_top_m < 0.1)).all(), above_top_m
+            # the crouch, its feet put back down where the standing feet were
+            feet_z_m = robot.body_pose_w[:, feet, 2].mean(dim=1)
+            crouch = robot.default_joint_pos.clone()
+            for joints, angle_rad in ((".*_hip_pitch_joint", -0.6), (".*_knee_joint", 1.2),
+                                      (".*_ankle_pitch_joint", -0.6)):
+                crouch[:, robot.find_joints(joints)[0]] = angle_rad
+            robot.write_joint_state(crouch, torch.zeros_like(crouch), everyone)
+            env.sim.forward()
+            env.scene.update()
+            feet_rise_m = robot.body_pose_w[:, feet, 2].mean(dim=1) - feet_z_m
+            crouched_m = command.measured_height_m - feet_rise_m
+            assert crouched_m.tolist() == pytest.approx([top_m] * env.num_envs, abs=0.02)
+            _restore_after(env, standing_ratio=0.0, lift_scale=0.0)
+            env.step(torch.zeros(env.num_envs, env.action_manager.total_action_dim))
+            assert (command.measured_height_m < 0.25).all(), command.measured_height_m
+        finally:
+            _restore_after(env, standing_ratio=0.5, lift_scale=1.0)
