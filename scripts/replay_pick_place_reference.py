@@ -65,7 +65,7 @@ class Replay:
     trajectory: str
     phase: torch.Tensor              # (T, N) index into PHASES
     cube_lift_m: torch.Tensor        # (T, N) cube height above its start [m]
-    palm_cube_m: torch.Tensor        # (T, N) palm centre to cube centre [m]
+    palm_cube_m: torch.Tensor        # (T, N) the hand's grasp point to the cube's centre [m]
     finger_error_rad: torch.Tensor   # (T, N) mean |q - q_ref| over the 7 right-hand joints
     valid: torch.Tensor              # (T, N) the env is still in its first episode at this step
     ended_step: list[int]            # per env: the env step its episode ended
@@ -76,6 +76,11 @@ class Replay:
         """(N,) the highest cube lift over each env's carry phase [m] (-inf if it never reached the carry)."""
         carry = (self.phase == PHASES.index("carry")) & self.valid
         return torch.where(carry, self.cube_lift_m, -torch.inf).amax(dim=0)
+
+    def carry_grasp_distance_m(self) -> torch.Tensor:
+        """(N,) the farthest the cube's centre is from the hand's grasp point over each env's carry phase [m]."""
+        carry = (self.phase == PHASES.index("carry")) & self.valid
+        return torch.where(carry, self.palm_cube_m, -torch.inf).amax(dim=0)
 
 
 class GravityTorque:
