@@ -244,10 +244,10 @@ class G1HeightTrackingEnvCfg(ManagerBasedRLEnvCfg):
     decimation = 4  # 50 Hz policy, 200 Hz physics
     episode_length_s = 15.0
     scene = SCENE
-    # measured in the fallen-state collection (CPU, 448 drops of G1 on the 8 rows): at most 141 constraint rows and
-    # 50 contacts in one world, at most 24 contacts per world over all worlds at once. Rows are per world (past njmax
-    # they are dropped): 300, about 2x. Contacts share one pool of num_envs x nconmax (kernels run over all of it):
-    # 96, 4x the pooled peak
+    # measured on CPU: in the fallen-state collection (448 drops of G1 on the 8 rows) at most 141 constraint rows and
+    # 50 contacts in one world; over all worlds at once at most 24 contacts per world, 33 in a rollout of random
+    # actions. Rows are per world (past njmax they are dropped): 300, about 2x. Contacts share one pool of
+    # num_envs x nconmax (MuJoCo Warp's contact kernels run over all of it): 96, 3x
     sim = velocity_sim_cfg(max_contacts_per_world=96, max_constraint_rows_per_world=300)
     commands = CommandsCfg()
     actions = ActionsCfg()
