@@ -163,6 +163,15 @@ def test_command_following_lift(env_and_agent):
     env.reset()
 
 
+def _zero_action_steps(env, num_steps: int, measure) -> torch.Tensor:
+    """(num_steps, ...) `measure()` after each of `num_steps` env steps with a zero action."""
+    values = []
+    for _ in range(num_steps):
+        env.step(torch.zeros(env.num_envs, env.action_manager.total_action_dim))
+        values.append(measure())
+    return torch.stack(values)
+
+
 def _restore_after(env, standing_ratio: float, lift_scale: float):
     """Reset the env with this standing share and lift strength (the curriculum's, which every reset hands to the
     lift); the caller puts the defaults back with a second call."""
@@ -179,12 +188,8 @@ def test_the_lifts_yaw_damping_does_not_spin_an_upright_g1(env_and_agent):
     with torch.inference_mode():
         try:
             _restore_after(env, standing_ratio=1.0, lift_scale=1.0)
-            yaw_rates = []
-            for step in range(25):
-                env.step(torch.zeros(env.num_envs, env.action_manager.total_action_dim))
-                if step >= 5:
-                    yaw_rates.append(robot.root_ang_vel_w[:, 2].abs())
-            assert torch.stack(yaw_rates).mean().item() < 0.5, torch.stack(yaw_rates).mean(dim=0)
+            yaw_rates = _zero_action_steps(env, 25, lambda: robot.root_ang_vel_w[:, 2].abs())[5:]
+            assert yaw_rates.mean().item() < 0.5, yaw_rates.mean(dim=0)
         finally:
             _restore_after(env, standing_ratio=0.5, lift_scale=1.0)
 
@@ -195,11 +200,7 @@ def test_illegal_contacts_cost_a_lying_g1_once_not_per_wrist_link(env_and_agent)
     with torch.inference_mode():
         try:
             _restore_after(env, standing_ratio=0.0, lift_scale=0.0)
-            costs = []
-            for _ in range(10):
-                env.step(torch.zeros(env.num_envs, env.action_manager.total_action_dim))
-                costs.append(env.reward_manager.step_reward["illegal_contacts"].clone())
-            costs = torch.stack(costs)
+            costs = _zero_action_steps(env, 10, lambda: env.reward_manager.step_reward["illegal_contacts"].clone())
             assert set(costs.unique().tolist()) <= {0.0, -2.0} and (costs == -2.0).any(), costs.unique()
         finally:
             _restore_after(env, standing_ratio=0.5, lift_scale=1.0)
