@@ -25,7 +25,7 @@ task's ±0.1 rad (the reaching arm bends the soft waist forward 0.2-0.4 rad, mor
 hold). With `--gravity_compensation` the joints then follow the reference and the hand meets the cube where the
 reference says: what is left is the grasp's physics (contacts, friction, finger force).
 
-Printed: per phase and env, the cube's height above its start, the palm-cube distance and the right-hand finger
+Printed: per phase and env, the cube's height above its start, the grasp point-cube distance and the right-hand finger
 error; per env, the highest lift during the carry, how the episode ended and the command's episode metrics
 (object_lifted, object_goal_distance_m, object_at_goal).
 """
@@ -65,22 +65,25 @@ class Replay:
     trajectory: str
     phase: torch.Tensor              # (T, N) index into PHASES
     cube_lift_m: torch.Tensor        # (T, N) cube height above its start [m]
-    palm_cube_m: torch.Tensor        # (T, N) the hand's grasp point to the cube's centre [m]
+    grasp_cube_m: torch.Tensor       # (T, N) the hand's grasp point to the cube's centre [m]
     finger_error_rad: torch.Tensor   # (T, N) mean |q - q_ref| over the 7 right-hand joints
     valid: torch.Tensor              # (T, N) the env is still in its first episode at this step
     ended_step: list[int]            # per env: the env step its episode ended
     ended_by: list[str]              # per env: the termination terms that ended it
     metrics: dict[str, list[float]]  # "<term>/<name>" of each env's episode (env.last_episode_metrics)
 
-    def carry_lift_m(self) -> torch.Tensor:
-        """(N,) the highest cube lift over each env's carry phase [m] (-inf if it never reached the carry)."""
+    def carry_max(self, values: torch.Tensor) -> torch.Tensor:
+        """(N,) the largest of (T, N) `values` over each env's carry phase (-inf if it never reached the carry)."""
         carry = (self.phase == PHASES.index("carry")) & self.valid
-        return torch.where(carry, self.cube_lift_m, -torch.inf).amax(dim=0)
+        return torch.where(carry, values, -torch.inf).amax(dim=0)
+
+    def carry_lift_m(self) -> torch.Tensor:
+        """(N,) the highest cube lift over each env's carry phase [m]."""
+        return self.carry_max(self.cube_lift_m)
 
     def carry_grasp_distance_m(self) -> torch.Tensor:
         """(N,) the farthest the cube's centre is from the hand's grasp point over each env's carry phase [m]."""
-        carry = (self.phase == PHASES.index("carry")) & self.valid
-        return torch.where(carry, self.palm_cube_m, -torch.inf).amax(dim=0)
+        return self.carry_max(self.grasp_cube_m)
 
 
 class GravityTorque:
@@ -152,16 +155,16 @@ def replay(env, trajectory: str, gravity_compensation: bool = False, hold_anchor
     env.reset()
     start_z = cube.root_pos_w[:, 2].clone()
     n, steps = env.num_envs, num_steps or env.max_episode_length
-    rows = {key: torch.zeros(steps, n) for key in ("phase", "lift", "palm", "finger", "valid")}
+    rows = {key: torch.zeros(steps, n) for key in ("phase", "lift", "grasp", "finger", "valid")}
     running = torch.ones(n, dtype=torch.bool)
     ended_step, ended_by = [steps] * n, ["(still running)"] * n
     metrics = {key: [float("nan")] * n for key in env.last_episode_metrics}
     for step in range(steps):
         # recorded before the step: after it, an ended env has been reset already
-        palm_pos, _ = mdp.palm_pose_w(env, palm, GRASP_POINT_M)
+        grasp_pos, _ = mdp.palm_pose_w(env, palm, GRASP_POINT_M)
         rows["phase"][step] = reference.phase.float().cpu()
         rows["lift"][step] = (cube.root_pos_w[:, 2] - start_z).cpu()
-        rows["palm"][step] = torch.linalg.norm(cube.root_pos_w - palm_pos, dim=-1).cpu()
+        rows["grasp"][step] = torch.linalg.norm(cube.root_pos_w - grasp_pos, dim=-1).cpu()
         error = (reference.robot_joint_pos - reference.joint_pos)[:, hand].abs().mean(dim=-1)
         rows["finger"][step] = error.cpu()
         rows["valid"][step] = running.float()
@@ -184,24 +187,24 @@ def replay(env, trajectory: str, gravity_compensation: bool = False, hold_anchor
             for key, value in env.last_episode_metrics.items():
                 metrics[key][i] = float(value[i])
         running &= ~ended
-    return Replay(trajectory, rows["phase"].long(), rows["lift"], rows["palm"], rows["finger"],
+    return Replay(trajectory, rows["phase"].long(), rows["lift"], rows["grasp"], rows["finger"],
                   rows["valid"].bool(), ended_step, ended_by, metrics)
 
 
 def report(result: Replay, step_dt_s: float) -> None:
     n = result.phase.shape[1]
     print(f"\n=== {result.trajectory} ({n} envs) ===")
-    print("phase     time [s]     cube lift [cm] (max, per env)  palm-cube [cm] (min)    finger error [rad] (mean)")
+    print("phase     time [s]     cube lift [cm] (max, per env)  grasp-cube [cm] (min)   finger error [rad] (mean)")
     for index, phase in enumerate(PHASES):
         mask = (result.phase == index) & result.valid
         if not mask.any():
             continue
         steps = torch.nonzero(mask.any(dim=1)).flatten()
         lift = torch.where(mask, result.cube_lift_m, -torch.inf).amax(dim=0) * 100
-        palm = torch.where(mask, result.palm_cube_m, torch.inf).amin(dim=0) * 100
+        grasp = torch.where(mask, result.grasp_cube_m, torch.inf).amin(dim=0) * 100
         finger = (result.finger_error_rad * mask).sum(dim=0) / mask.sum(dim=0).clamp(min=1)
         print(f"{phase:<9} {steps[0] * step_dt_s:4.2f}-{(steps[-1] + 1) * step_dt_s:4.2f}  "
-              f"{' '.join(f'{v:6.1f}' for v in lift.tolist()):<31} {' '.join(f'{v:5.1f}' for v in palm.tolist()):<23} "
+              f"{' '.join(f'{v:6.1f}' for v in lift.tolist()):<31} {' '.join(f'{v:5.1f}' for v in grasp.tolist()):<23} "
               f"{' '.join(f'{v:5.2f}' for v in finger.tolist())}")
     carry = result.carry_lift_m()
     for i in range(n):
