@@ -40,7 +40,9 @@ def _height_error_m(env, command_name: str) -> torch.Tensor:
 def _bodies_gravity_b(env, asset_cfg: SceneEntityCfg) -> torch.Tensor:
     """(N, B, 3) the unit gravity direction in each selected body's frame: (0, 0, -1) upright."""
     quat = env.scene[asset_cfg.name].body_pose_w[:, asset_cfg.body_ids, 3:7]
-    down = torch.tensor([0.0, 0.0, -1.0], device=quat.device).expand(quat.shape[:-1] + (3,))
+    # made on the device (no host tensor): the step runs inside a captured CUDA graph
+    down = torch.zeros_like(quat[..., :3])
+    down[..., 2] = -1.0
     return quat_rotate_inverse(quat, down)
 
 
