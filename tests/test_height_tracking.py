@@ -27,6 +27,7 @@ def env_and_agent(tmp_path_factory):
 
     env_cfg, agent_cfg = agile.tasks.load_cfgs(TASK)
     env_cfg.num_envs = 3
+    env_cfg.check_capture_safety = True  # every test's steps after the warm-up: nothing the GPU's graph refuses
     env_cfg.scene.terrain = dataclasses.replace(env_cfg.scene.terrain, num_rows=2, num_cols=3)
     env_cfg.events.reset_base.params["dataset"] = FallenStateDatasetCfg(
         cache_dir=str(tmp_path_factory.mktemp("fallen_cache")))

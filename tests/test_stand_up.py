@@ -79,6 +79,7 @@ def test_a_cache_file_is_used_only_when_whole_and_made_for_the_key(tmp_path):
 def _small_env_cfg(cache_dir: Path, num_rows: int = 2):
     env_cfg, agent_cfg = agile.tasks.load_cfgs(TASK)
     env_cfg.num_envs = 3
+    env_cfg.check_capture_safety = True  # every test's steps after the warm-up: nothing the GPU's graph refuses
     env_cfg.scene.terrain = dataclasses.replace(env_cfg.scene.terrain, num_rows=num_rows, num_cols=3)
     env_cfg.events.reset_base.params["dataset"] = FallenStateDatasetCfg(cache_dir=str(cache_dir))
     return env_cfg, agent_cfg

@@ -46,10 +46,12 @@ def assert_in_space(space, value, where: str) -> None:
 
 @pytest.mark.parametrize("task", SMOKE_TASKS)
 def test_task_builds_steps_resets_and_trains(task, tmp_path):
-    env = gym.make(task, num_envs=2, device="cpu").unwrapped
+    env_cfg, _ = agile.tasks.load_cfgs(task)
+    env_cfg.check_capture_safety = True  # the steps after the capture's warm-up: nothing the GPU's graph refuses
+    env = gym.make(task, cfg=env_cfg, num_envs=2, device="cpu").unwrapped
     obs, _ = env.reset()
     assert_in_space(env.observation_space, obs, "obs")
-    for _ in range(3):
+    for _ in range(5):
         obs, reward, terminated, truncated, extras = env.step(torch.rand(2, env.action_manager.total_action_dim) - 0.5)
         assert torch.isfinite(reward).all()
     # the env counts a NaN term as 0 in the reward: a finite reward alone would prove nothing

@@ -9,6 +9,7 @@ import torch
 import warp as wp
 from tensordict import TensorDict
 
+from agile.rl_env.capture_guard import CaptureGuard
 from agile.rl_env.captured_step import CapturedStep
 from agile.rl_env.managers import (ActionManager, CommandManager, CurriculumManager, EventManager, MetricsManager,
                                    ObservationManager, RewardManager, TerminationManager, merge_episode_metrics)
@@ -41,6 +42,10 @@ class ManagerBasedRLEnvCfg:
     capture_step: bool = True
     """On CUDA, record the whole env step (term math, resets and physics) once as a CUDA graph and replay it:
     no Python runs per step. Terms must then avoid host syncs and host-to-device copies."""
+    check_capture_safety: bool = False
+    """Where the step is not captured (the CPU): run each step after the capture's warm-up under `CaptureGuard`,
+    which raises at the first operation a CUDA graph capture refuses (a tensor made from host data, a host read of
+    a device value, a data-dependent shape), naming the line: a term developed on the CPU is then safe on the GPU."""
     max_joint_speed_rad_s: float = 1000.0
     """A world whose joint speed exceeds this, or whose state is not finite, is reset and counted as unstable."""
 
@@ -189,6 +194,7 @@ class ManagerBasedRLEnv(gym.Env):
         self._all_envs = torch.ones(self.num_envs, dtype=torch.bool, device=self.device)
         self._log = EpisodeLog(self.device)
         self._captured_step = CapturedStep(self.sim, self._step)
+        self._uncaptured_steps = 0  # the steps before a capture would be recorded are not checked (its warm-up)
 
         build_managers(self, cfg)
 
@@ -223,7 +229,12 @@ class ManagerBasedRLEnv(gym.Env):
         """
         action = action.to(self.device)
         if not self.step_is_captured:
-            obs, reward, terminated, time_outs = self._step(action)
+            self._uncaptured_steps += 1
+            if self.cfg.check_capture_safety and self._uncaptured_steps > CapturedStep.WARMUP_CALLS:
+                with CaptureGuard():
+                    obs, reward, terminated, time_outs = self._step(action)
+            else:
+                obs, reward, terminated, time_outs = self._step(action)
         else:
             obs, reward, terminated, time_outs = self._captured_step(action)
             self._log.frozen = self._captured_step.graph is not None
