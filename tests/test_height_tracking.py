@@ -59,6 +59,7 @@ def test_fallen_states_are_collected_without_the_lift(env_and_agent):
     # the lift follows the height command; left on while the robots fall, it held them up towards the command the
     # build left (0.92 m): pelvises 0.5-0.7 m up, most still swinging and dropped. Off, they lie (pelvis ~0.1 m).
     env, _ = env_and_agent
+    assert env.action_manager.training_only_terms == ["lift"]  # what the collection switches off
     states = env.event_manager.get_term("reset_base").states
     pelvis_m = states.tensors["root_pos_env_m"][:, 2]  # above the cell's origin, on the terrain
     assert len(states) >= 4 and (pelvis_m < 0.35).all(), pelvis_m

@@ -70,6 +70,12 @@ class ActionManager:
     def active_terms(self) -> list[str]:
         return list(self.terms)
 
+    @property
+    def training_only_terms(self) -> list[str]:
+        """The terms whose config says `training_only`: aids such as a lift or a harness, which inference,
+        exports and students run without, and the fallen-state collection switches off."""
+        return [name for name, term in self.terms.items() if getattr(term.cfg, "training_only", False)]
+
     def get_term(self, name: str) -> ActionTerm:
         if name not in self.terms:
             raise KeyError(f"no action term '{name}'. Terms: {self.active_terms}")
