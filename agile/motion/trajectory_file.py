@@ -156,9 +156,10 @@ def resample(trajectory: Trajectory, step_s: float) -> Trajectory:
 
 
 def write_trajectory(path: str | Path, trajectory: Trajectory, description: str) -> None:
-    """Write keyframes in the file format (numbers rounded to 1e-5)."""
+    """Write keyframes in the file format (numbers rounded to 1e-5; a zero is written 0.0, whatever its sign)."""
     def row(values):
-        return [round(float(v), 5) for v in values]
+        # + 0.0 turns -0.0 into 0.0: the sign of a zero depends on the solver's last rounding, not on the data
+        return [round(float(v), 5) + 0.0 for v in values]
 
     frames = [{"time_s": round(float(trajectory.time_s[i]), 5), "phase": PHASES[int(trajectory.phase[i])],
                "joint_pos": row(trajectory.joint_pos[i]), "object_pos_m": row(trajectory.object_pos_m[i]),
