@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 import gymnasium as gym
@@ -230,10 +231,8 @@ class ManagerBasedRLEnv(gym.Env):
         action = action.to(self.device)
         if not self.step_is_captured:
             self._uncaptured_steps += 1
-            if self.cfg.check_capture_safety and self._uncaptured_steps > CapturedStep.WARMUP_CALLS:
-                with CaptureGuard():
-                    obs, reward, terminated, time_outs = self._step(action)
-            else:
+            check = self.cfg.check_capture_safety and self._uncaptured_steps > CapturedStep.WARMUP_CALLS
+            with CaptureGuard() if check else contextlib.nullcontext():
                 obs, reward, terminated, time_outs = self._step(action)
         else:
             obs, reward, terminated, time_outs = self._captured_step(action)

@@ -150,11 +150,13 @@ def collect_fallen_states(env, cfg: FallenStateDatasetCfg, robot_name: str = "ro
     # follows a height command (HeightTracking-G1) would otherwise hold every robot towards the command it had at
     # the build: 8 G1s on CPU, one drop per row, tracked point 0.66-0.91 m up and 41 of 64 swinging faster than
     # 0.5 m/s (dropped); with it off 0.04-0.18 m and none dropped. Each aid's strength is put back afterwards.
-    aids = [env.action_manager.get_term(name) for name in env.action_manager.training_only_terms]
-    for name, aid in zip(env.action_manager.training_only_terms, aids):
+    aids = []
+    for name in env.action_manager.training_only_terms:
+        aid = env.action_manager.get_term(name)
         if not callable(getattr(aid, "scale_forces", None)):
             raise ValueError(f"training-only action term '{name}' ({type(aid).__name__}) has no scale_forces(scale): "
                              f"the fallen-state collection cannot switch it off")
+        aids.append(aid)
     strengths = [aid.scale.clone() for aid in aids]
     try:
         for aid in aids:

@@ -64,13 +64,15 @@ def _policy_interface(actor_cfg) -> dict:
     return interface
 
 
-def io_descriptor(env, agent_cfg, training_only_actions: tuple[str, ...] = ()) -> dict:
+def io_descriptor(env, agent_cfg) -> dict:
     """The IO descriptor of a policy trained on `env` (a ManagerBasedRLEnv) with `agent_cfg`."""
     robot = env.scene[env.action_manager.policy_entity_name()]
     actions = []
+    training_only = env.action_manager.training_only_terms
     for name, term in env.action_manager.terms.items():
-        # a term without action dimensions (random upper-body targets) is not part of the policy's output
-        if name in training_only_actions or term.action_dim == 0:
+        # a term without action dimensions (random upper-body targets) is not part of the policy's output, nor is a
+        # training-only aid (a lift, a harness), which exports run without
+        if name in training_only or term.action_dim == 0:
             continue
         actions.append({"name": name, **term.io_description()})
     groups = agent_cfg.obs_groups[policy_obs_set(agent_cfg)]
