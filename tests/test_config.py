@@ -126,3 +126,31 @@ def test_velocity_tasks_start_on_agile_terrain_rows(task):
 
     env_cfg, _ = agile.tasks.load_cfgs(task)
     assert env_cfg.scene.max_init_terrain_level == 1  # AGILE's velocity configs start every env on row 0 or 1
+
+
+def test_inference_cfg_removes_exactly_the_training_only_action_terms():
+    """Play, eval and export run without the aids (lift, harness, random arm motions) and with every other term;
+    the same rule as a built env's `ActionManager.training_only_terms`."""
+    import dataclasses
+
+    import agile.tasks
+    from agile.rl_env.managers import is_training_only
+    from utils.policy import inference_cfg
+
+    removed_by_task = {}
+    for task in agile.tasks.registered_tasks():
+        env_cfg, _ = agile.tasks.load_cfgs(task)
+        if not hasattr(env_cfg, "actions"):  # a multi-agent task: its agents' configs go through inference_cfg
+            assert all(hasattr(agent_cfg, "actions") for agent_cfg in env_cfg.agents.values()), task
+            continue
+        before = {f.name: getattr(env_cfg.actions, f.name) for f in dataclasses.fields(env_cfg.actions)}
+        after = inference_cfg(env_cfg).actions
+        removed = sorted(name for name, term in before.items() if term is not None and getattr(after, name) is None)
+        assert removed == sorted(name for name, term in before.items() if is_training_only(term)), task
+        assert all(getattr(after, name) is term for name, term in before.items() if name not in removed), task
+        assert env_cfg.curriculum is None, task
+        removed_by_task[task] = removed
+    assert removed_by_task["StandUp-T1-v0"] == ["lift"]
+    assert removed_by_task["HeightTracking-G1-v0"] == ["lift"]
+    assert "harness" in removed_by_task["Velocity-Height-G1-Teacher-v0"]
+    assert removed_by_task["Velocity-T1-v0"] == []

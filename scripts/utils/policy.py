@@ -8,14 +8,14 @@ import dataclasses
 def inference_cfg(env_cfg):
     """The env cfg for running a policy: no observation noise, no curriculum, and no training-only action terms
     (a harness holding the robot up while it learns)."""
-    from agile.rl_env.managers import ObsGroup
+    from agile.rl_env.managers import ObsGroup, is_training_only
 
     for f in dataclasses.fields(env_cfg.observations):
         group = getattr(env_cfg.observations, f.name)
         if isinstance(group, ObsGroup):
             group.enable_corruption = False
     for f in dataclasses.fields(env_cfg.actions):
-        if getattr(getattr(env_cfg.actions, f.name), "training_only", False):
+        if is_training_only(getattr(env_cfg.actions, f.name)):
             setattr(env_cfg.actions, f.name, None)
     env_cfg.curriculum = None
     return env_cfg

@@ -1,6 +1,6 @@
 """The eight managers and the term configs a task declares."""
 
-from agile.rl_env.managers.action_manager import ActionManager, ActionTerm
+from agile.rl_env.managers.action_manager import ActionManager, ActionTerm, is_training_only
 from agile.rl_env.managers.command_manager import CommandManager, CommandTerm
 from agile.rl_env.managers.curriculum_manager import CurriculumManager
 from agile.rl_env.managers.event_manager import EventManager
@@ -14,4 +14,4 @@ from agile.rl_env.managers.termination_manager import TerminationManager
 __all__ = ["ActionManager", "ActionTerm", "CommandManager", "CommandTerm", "CurrTerm", "CurriculumManager", "DoneTerm",
            "EventManager", "EventTerm", "ManagerTermBase", "MetricTerm", "MetricsManager", "ObsGroup", "ObsTerm",
            "ObservationManager", "RewTerm", "RewardManager", "SceneEntityCfg", "TermHistory", "TerminationManager",
-           "UniformNoiseCfg", "Unoise", "index_list", "merge_episode_metrics"]
+           "UniformNoiseCfg", "Unoise", "index_list", "is_training_only", "merge_episode_metrics"]

@@ -10,6 +10,12 @@ from agile.rl_env.managers.manager_base import build_class_terms
 from agile.utils.config import ConfigError
 
 
+def is_training_only(term_cfg) -> bool:
+    """Whether an action term's config marks it as a training aid (a lift, a harness): one rule for the built
+    env (`ActionManager.training_only_terms`) and for configs made ready for inference before an env exists."""
+    return bool(getattr(term_cfg, "training_only", False))
+
+
 class ActionTerm:
     """Base of action terms. `cfg.class_type` names the term class."""
 
@@ -72,9 +78,9 @@ class ActionManager:
 
     @property
     def training_only_terms(self) -> list[str]:
-        """The terms whose config says `training_only`: aids such as a lift or a harness, which inference,
-        exports and students run without, and the fallen-state collection switches off."""
-        return [name for name, term in self.terms.items() if getattr(term.cfg, "training_only", False)]
+        """The terms whose config says `training_only` (`is_training_only`): aids such as a lift or a harness,
+        which inference, exports and students run without, and the fallen-state collection switches off."""
+        return [name for name, term in self.terms.items() if is_training_only(term.cfg)]
 
     def get_term(self, name: str) -> ActionTerm:
         if name not in self.terms:
