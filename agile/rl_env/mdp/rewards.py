@@ -48,7 +48,7 @@ def base_height_exp(env, target_height_m: float, std: float, asset_cfg: SceneEnt
 
 # -- orientation and base motion --------------------------------------------------------------------
 
-def _body_projected_gravity(env, asset_cfg: SceneEntityCfg) -> torch.Tensor:
+def body_projected_gravity(env, asset_cfg: SceneEntityCfg) -> torch.Tensor:
     """(N, B, 3) gravity direction in the frames of the selected bodies (root if none selected)."""
     robot = env.scene[asset_cfg.name]
     if asset_cfg.body_names is None:
@@ -60,13 +60,13 @@ def _body_projected_gravity(env, asset_cfg: SceneEntityCfg) -> torch.Tensor:
 
 def flat_orientation_l2(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
     """Squared xy of the gravity direction in the body frame (0 when upright), summed over bodies."""
-    return torch.sum(torch.square(_body_projected_gravity(env, asset_cfg)[..., :2]), dim=(1, 2))
+    return torch.sum(torch.square(body_projected_gravity(env, asset_cfg)[..., :2]), dim=(1, 2))
 
 
 def flat_body_orientation_exp(env, std_rad: float, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
     """exp(-Σ_bodies |g_xy|² / std²) (AGILE: the bodies' squared tilts add up inside one kernel);
     |g_xy| ≈ tilt angle for small tilts."""
-    g_xy = _body_projected_gravity(env, asset_cfg)[..., :2]
+    g_xy = body_projected_gravity(env, asset_cfg)[..., :2]
     return torch.exp(-torch.sum(torch.square(g_xy), dim=(1, 2)) / std_rad**2)
 
 

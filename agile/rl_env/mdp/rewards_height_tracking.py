@@ -8,8 +8,9 @@ from __future__ import annotations
 import torch
 
 from agile.rl_env.managers import ManagerTermBase, SceneEntityCfg
+from agile.rl_env.mdp.rewards import body_projected_gravity
 from agile.rl_env.mdp.rewards_stand_up import standing
-from agile.utils.math import quat_conjugate, quat_mul, quat_rotate_inverse, yaw_from_quat
+from agile.utils.math import quat_conjugate, quat_mul, yaw_from_quat
 
 __all__ = ["body_orientation_penalty", "bodies_lin_vel_l2", "completely_airborne", "feet_distance_3d",
            "feet_distance_3d_if_standing", "foot_orientation_l1", "ground_unloaded", "impact_velocity",
@@ -37,18 +38,9 @@ def _height_error_m(env, command_name: str) -> torch.Tensor:
     return command.measured_height_m - command.target_height_m
 
 
-def _bodies_gravity_b(env, asset_cfg: SceneEntityCfg) -> torch.Tensor:
-    """(N, B, 3) the unit gravity direction in each selected body's frame: (0, 0, -1) upright."""
-    quat = env.scene[asset_cfg.name].body_pose_w[:, asset_cfg.body_ids, 3:7]
-    # made on the device (no host tensor): the step runs inside a captured CUDA graph
-    down = torch.zeros_like(quat[..., :3])
-    down[..., 2] = -1.0
-    return quat_rotate_inverse(quat, down)
-
-
 def _bodies_tilt_rad(env, asset_cfg: SceneEntityCfg) -> torch.Tensor:
     """(N, B) angle between each selected body's z axis and world up [rad]: 0 upright, π upside down."""
-    return torch.acos((-_bodies_gravity_b(env, asset_cfg)[..., 2]).clamp(-1.0, 1.0))
+    return torch.acos((-body_projected_gravity(env, asset_cfg)[..., 2]).clamp(-1.0, 1.0))
 
 
 # -- the height command ------------------------------------------------------------------------------------------
@@ -149,7 +141,7 @@ def body_orientation_penalty(env, asset_cfg: SceneEntityCfg, axis: str = "roll",
     term = "body_orientation_penalty"
     _check("axis", axis, ORIENTATION_AXES, term)
     _check("direction", direction, ORIENTATION_DIRECTIONS, term)
-    gravity_b = _bodies_gravity_b(env, asset_cfg)
+    gravity_b = body_projected_gravity(env, asset_cfg)
     component = gravity_b[..., 0] if axis == "pitch" else gravity_b[..., 1]
     if direction == "forward":
         component = component.clamp(min=0.0)

@@ -8,7 +8,7 @@ import torch
 
 from agile.rl_env.managers import ManagerTermBase, SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
-from agile.rl_env.mdp.rewards import _body_projected_gravity
+from agile.rl_env.mdp.rewards import body_projected_gravity
 
 ROBOT = SceneEntityCfg("robot")
 
@@ -19,7 +19,7 @@ def time_out(env) -> torch.Tensor:
 
 def bad_orientation(env, limit_angle_rad: float, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
     """Any selected body (root if none) tilted more than limit_angle_rad from upright."""
-    gravity_z = _body_projected_gravity(env, asset_cfg)[..., 2]
+    gravity_z = body_projected_gravity(env, asset_cfg)[..., 2]
     tilt = torch.acos((-gravity_z).clamp(-1.0, 1.0))
     return (tilt > limit_angle_rad).any(dim=1)
 
