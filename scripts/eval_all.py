@@ -34,6 +34,30 @@ def disable_interval_events(env_cfg) -> None:
             setattr(env_cfg.events, name, None)
 
 
+def device_name(device: str) -> str:
+    """The device in words, for the report: the GPU's model name, or "cpu"."""
+    import torch
+
+    return torch.cuda.get_device_name(torch.device(device)) if device.startswith("cuda") else "cpu"
+
+
+def source_commit() -> str:
+    """The commit of this checkout the report was made at ("+ uncommitted changes" where the tree differs from
+    it), or "unknown" outside a git checkout (an installed package)."""
+    import subprocess
+
+    def git(*args) -> str:
+        return subprocess.run(["git", "-C", str(cli.REPO_ROOT), *args], capture_output=True, text=True,
+                              check=True).stdout.strip()
+
+    try:
+        commit = git("rev-parse", "--short=12", "HEAD")
+        dirty = git("status", "--porcelain", "--untracked-files=no")
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+    return commit + (" + uncommitted changes" if dirty else "")
+
+
 def evaluate_task(entry, args) -> dict:
     """Build the task's env in its shipped policy's training conditions, run the policy, return the metrics."""
     settings = dict(entry.eval_settings)
@@ -57,7 +81,8 @@ def evaluate_task(entry, args) -> dict:
         env.close()
     full_setting = (device != "cpu" and all(settings[k] >= entry.eval_settings[k] for k in settings))
     settings["overrides"] = overrides
-    return {"task": entry.task, "kind": entry.kind, "checkpoint": checkpoint, "device": device, **settings,
+    return {"task": entry.task, "kind": entry.kind, "checkpoint": checkpoint, "device": device,
+            "device_name": device_name(device), "commit": source_commit(), **settings,
             "criteria": entry.criteria, "criteria_checked": full_setting, **metrics}
 
 
@@ -72,9 +97,11 @@ def verdict(result: dict) -> tuple[str, list[str]]:
 
 
 def report_markdown(results: list[dict], plots: list[str]) -> str:
+    made_at = sorted({f"{r.get('device_name', r['device'])} at commit {r.get('commit', 'unknown')}" for r in results})
     lines = ["# Evaluation of the shipped policies", "",
              "Written by `scripts/eval_all.py`: every task of kind trainable or distilled with a shipped policy "
-             "(`agile list`), pushes off, commands drawn by the task's command term.", ""]
+             "(`agile list`), pushes off, commands drawn by the task's command term.", "",
+             f"Made on {'; '.join(made_at)}.", ""]
     if not all(r["criteria_checked"] for r in results):
         lines += ["**Criteria not checked** for the runs marked so: they ran on CPU or with fewer envs or shorter "
                   "episodes than the task's eval settings, which proves only that the policy loads and steps.", ""]

@@ -229,23 +229,6 @@ class CommandSampler:
         return [*velocity, self.params.get("default_height_m", self.ranges["base_height_m"][1])]
 
 
-def action_bounds(action_terms: list[dict]) -> tuple[np.ndarray, np.ndarray]:
-    """Per action entry, the actions whose targets (action · scale + offset) reach the term's clip ends, as the
-    env's `JointPositionAction.action_bounds` (±inf without a clip or for a joint of scale 0)."""
-    lows, highs = [], []
-    for term in action_terms:
-        scale, offset = np.array(term["scale"], dtype=np.float64), np.array(term["offset"], dtype=np.float64)
-        low, high = np.full(len(scale), -np.inf), np.full(len(scale), np.inf)
-        if "clip" in term:
-            moving = scale != 0.0
-            ends = [(np.array(term["clip"][i], dtype=np.float64)[moving] - offset[moving]) / scale[moving]
-                    for i in (0, 1)]
-            low[moving], high[moving] = np.minimum(*ends), np.maximum(*ends)
-        lows.append(low)
-        highs.append(high)
-    return np.concatenate(lows), np.concatenate(highs)
-
-
 def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s: float, command=None,
         seed: int = 0, on_frame=None) -> dict:
     import mujoco
@@ -258,7 +241,7 @@ def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s
     policy = load_policy(policy_path, descriptor["policy"])
     action_terms = descriptor["actions"]
     action_dim = sum(len(a["joint_names"]) for a in action_terms)
-    action_low, action_high = action_bounds(action_terms)
+    clip_actions = descriptor.get("clip_actions")  # older descriptors: none
     draw_command = CommandSampler(next(iter(descriptor["commands"].values())), rng)
     decimation = descriptor["decimation"]
     steps = int(round(duration_s / descriptor["control_dt_s"]))
@@ -278,10 +261,11 @@ def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s
             raise ValueError(f"--command has {len(cmd)} values; the policy's command has {draw_command.dim}")
         last_action = np.zeros(action_dim)
         for step in range(steps):
-            # clamped as the env clamps it (ActionManager.process_action): the same targets, and the last-action
-            # observation the policy was trained with
-            action = np.clip(np.asarray(policy(observer(data, cmd, last_action)), dtype=np.float64),
-                             action_low, action_high)
+            # clamped as the env clamps it (ActionManager.process_action): the last-action observation the policy
+            # was trained with
+            action = np.asarray(policy(observer(data, cmd, last_action)), dtype=np.float64)
+            if clip_actions is not None:
+                action = np.clip(action, -clip_actions, clip_actions)
             last_action = action
             start = 0
             for term in action_terms:

@@ -301,12 +301,12 @@ def main(argv=None) -> None:
         log_dir = cli.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
         cli.dump_configs(log_dir, env_cfg, agent_cfg)
     if args.inject_nan_actions is None:
-        wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
+        wrapped = RslRlVecEnvWrapper(env)
     else:
         from agile.rl_env.rsl_rl.fault_injection import NanActionVecEnv
 
         share, every = args.inject_nan_actions
-        wrapped = NanActionVecEnv(env, agent_cfg.clip_actions, share, int(every), agent_cfg.num_steps_per_env)
+        wrapped = NanActionVecEnv(env, share, int(every), agent_cfg.num_steps_per_env)
     with cli.quiet_stdout():
         runner = runner_class(agent_cfg)(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
     runner.logger.git_status_repos = cli.git_repos()

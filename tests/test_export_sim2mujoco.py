@@ -227,13 +227,11 @@ def test_each_action_term_describes_itself_and_sim2mujoco_refuses_what_is_not_jo
     env.close()
 
 
-@pytest.mark.parametrize("task", ["Velocity-T1-v0", "Velocity-G1-History-v0"])
-def test_sim2mujoco_clamps_actions_as_the_env_does(task):
-    """The deployment's action range, read from the IO descriptor, is the env's (`ActionManager.action_bounds`): the
+@pytest.mark.parametrize("task", ["Velocity-T1-v0", "Velocity-G1-Teacher-v0"])
+def test_the_io_descriptor_carries_the_envs_action_clamp(task):
+    """The deployment clamps the raw policy output as the env does (`clip_actions`, read from the IO descriptor): the
     last-action observation in MuJoCo holds what the policy saw in training."""
     env = gym.make(task, num_envs=1, device="cpu").unwrapped
     _, agent_cfg = agile.tasks.load_cfgs(task)
-    low, high = sim2mujoco.action_bounds(io_descriptor(env, agent_cfg)["actions"])
-    env_low, env_high = env.action_manager.action_bounds()
-    np.testing.assert_allclose(low, env_low[0].numpy(), rtol=1e-4, atol=1e-4)
-    np.testing.assert_allclose(high, env_high[0].numpy(), rtol=1e-4, atol=1e-4)
+    assert io_descriptor(env, agent_cfg)["clip_actions"] == env.cfg.clip_actions == env.action_manager.clip_actions
+    env.close()

@@ -8,6 +8,7 @@ import pytest
 import torch
 
 import agile.tasks  # noqa: F401
+from agile.rl_env.mdp import last_action
 from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, flatten_groups
 from agile.sim.terrain import TerrainGeneratorCfg, cache_dir, cache_key, load_or_generate_terrain
 from agile.utils.config import ConfigError
@@ -41,31 +42,35 @@ def test_a_nan_action_is_replaced_ended_and_counted(env):
         assert torch.isfinite(reward).all() and all_finite(obs) and not terminated.any()
 
 
-def test_the_env_clamps_far_off_actions_to_the_range_the_task_declares():
+def test_the_last_action_is_the_raw_action_and_far_off_ones_are_clamped_to_clip_actions():
     env = gym.make("Velocity-T1-v0", num_envs=4, device="cpu", seed=0, overrides=FLAT).unwrapped
     wrapped = RslRlVecEnvWrapper(env)
     term = env.action_manager.get_term("joint_pos")
-    low, high = env.action_manager.action_bounds()
-    # T1: target = action + default joint position, clipped to ±1 rad: the range is the actions reaching ±1 rad
-    torch.testing.assert_close(low, -1.0 - term.offset)
-    torch.testing.assert_close(high, 1.0 - term.offset)
+    clip = env.action_manager.clip_actions
+    assert clip == env.cfg.clip_actions == 100.0
+    # T1: target = action + default joint position, cut at ±1 rad. An action beyond that is seen raw by the
+    # last-action observation (Isaac Lab, AGILE; the shipped T1 policy learned so), while its target stays cut
+    beyond = (1.0 - term.offset) + 0.3
+    env.step(beyond)
+    torch.testing.assert_close(env.action_manager.action, beyond)
+    torch.testing.assert_close(last_action(env), beyond)
+    torch.testing.assert_close(term.processed_actions, torch.ones_like(beyond))
     far = torch.full((4, env.action_manager.total_action_dim), 1e6)
-    term.process_actions(far)
-    unclamped_targets = term.processed_actions.clone()
-    term.process_actions(torch.clamp(far, low, high))
-    torch.testing.assert_close(term.processed_actions, unclamped_targets)  # the clamp changes no joint target
     for sign in (1.0, -1.0, 1.0, -1.0):  # unclamped, the action rate of ±1e6 cost about -6.7e11 per step
         _, reward, _, _ = wrapped.step(sign * far)
-        assert reward.abs().max() < 10.0, reward
-    assert (env.action_manager.action.abs() <= 1.5).all()  # the action history holds the clamped actions
-    env.step(far)  # the same without the wrapper (eval, play): the env clamps, not the wrapper
+        assert reward.abs().max() < 1e5, reward
     running = env.episode_length_buf > 0  # an env that fell was reset, its action history zeroed
     assert running.any()
-    torch.testing.assert_close(env.action_manager.action[running], high[running])
+    torch.testing.assert_close(env.action_manager.action[running], -clip * torch.ones_like(far[running]))
     faulty = far.clone()
     faulty[0, 0], faulty[1, 0] = float("nan"), float("inf")  # not turned into numbers before the env counts them
     wrapped.step(faulty)
     assert env.action_manager.invalid_action.tolist() == [True, True, False, False]
+
+
+def test_clip_actions_must_be_positive():
+    with pytest.raises(ConfigError, match="clip_actions must be positive"):
+        gym.make("Velocity-T1-v0", num_envs=1, device="cpu", overrides=[*FLAT, "clip_actions=0.0"])
 
 
 def test_a_non_finite_reward_term_counts_zero_and_is_counted_per_term():

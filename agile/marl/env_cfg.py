@@ -17,6 +17,10 @@ class AgentCfg:
     """Names this agent's terms use -> entities and sensors of the world scene, e.g. {"robot": "g1",
     "contact_forces": "g1_contact_forces"}: a single-robot MDP written for "robot" drives the G1 unchanged.
     Names not listed are the world's own (a term can still read the other robot by its name)."""
+    clip_actions: float | None = 100.0
+    """The policy's raw actions are clamped to ±clip_actions before any term, observation or reward sees them (Isaac
+    Lab's agent setting `clip_actions`, kept in the env so that training, evaluation, play and user code step the same
+    env). As `ManagerBasedRLEnvCfg.clip_actions`, per agent."""
     commands: object = None
     actions: object = None
     observations: object = None

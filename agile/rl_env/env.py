@@ -47,6 +47,12 @@ class ManagerBasedRLEnvCfg:
     """Where the step is not captured (the CPU): run each step after the capture's warm-up under `CaptureGuard`,
     which raises at the first operation a CUDA graph capture refuses (a tensor made from host data, a host read of
     a device value, a data-dependent shape), naming the line: a term developed on the CPU is then safe on the GPU."""
+    clip_actions: float | None = 100.0
+    """The policy's raw actions are clamped to ±clip_actions before any term, observation or reward sees them (Isaac
+    Lab's agent setting `clip_actions`, kept in the env so that training, evaluation, play and user code step the same
+    env). The default 100 is a guard, far above what a trained policy outputs (the shipped ones stay
+    below about 10; joint targets saturate at their terms' clips long before), against a diverging policy's huge
+    actions: ±1e6 cost about -6.7e11 per step in the action-rate penalties. None: no clamp."""
     max_joint_speed_rad_s: float = 1000.0
     """A world whose joint speed exceeds this, or whose state is not finite, is reset and counted as unstable."""
 
@@ -134,7 +140,7 @@ def build_managers(env, cfg) -> None:
     built in the order their terms need: commands and actions exist before the observation terms that read them."""
     env.event_manager = EventManager(cfg.events, env)
     env.command_manager = CommandManager(cfg.commands, env)
-    env.action_manager = ActionManager(cfg.actions, env)
+    env.action_manager = ActionManager(cfg.actions, env, clip_actions=cfg.clip_actions)
     env.observation_manager = ObservationManager(cfg.observations, env)
     env.termination_manager = TerminationManager(cfg.terminations, env)
     env.reward_manager = RewardManager(cfg.rewards, env)

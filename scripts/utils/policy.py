@@ -35,7 +35,7 @@ def load_runner(checkpoint: dict, env, agent_cfg):
     if policy_state_key(agent_cfg) not in checkpoint:
         cli.fail(f"the checkpoint holds {sorted(k for k in checkpoint if k.endswith('_state_dict'))}, not the "
                  f"'{policy_state_key(agent_cfg)}' this task's policy needs")
-    wrapped = RslRlVecEnvWrapper(env, clip_actions=agent_cfg.clip_actions)
+    wrapped = RslRlVecEnvWrapper(env)
     with cli.quiet_stdout():  # rsl-rl prints the whole actor and critic
         runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
     # a shipped policy holds the acting model only; a training checkpoint also the critic (or teacher) and optimizer

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 import torch
 
 from agile.rl_env.managers.manager_base import build_class_terms
@@ -36,11 +34,6 @@ class ActionTerm:
     def reset(self, env_mask: torch.Tensor) -> None:
         pass
 
-    def action_bounds(self) -> tuple[torch.Tensor, torch.Tensor] | None:
-        """(low, high), each (num_envs, action_dim): the actions beyond which the term's effect no longer changes
-        (it clips them anyway); None: the term declares no such range."""
-        return None
-
     def io_description(self) -> dict:
         """This term in the exported IO descriptor: what a deployment needs to turn its slice of the policy output
         into robot commands. The base gives its type only; joint-target terms add joints, scale, offset, clip
@@ -53,8 +46,18 @@ class ActionTerm:
 
 
 class ActionManager:
-    def __init__(self, cfg, env):
+    """Splits the policy's action among the terms. `action` (what the `last_action` observation and the action-rate
+    rewards read) is the policy's raw output, as Isaac Lab's `ActionManager.action` and AGILE's `mdp.last_action`:
+    the terms' clips bound the joint targets they make from it, not the action itself. Two rules keep it finite
+    and bounded: a non-finite entry becomes 0 and ends the env's episode, and with `clip_actions` every entry is
+    clamped to ±clip_actions first (Isaac Lab's agent setting, moved into the env so that training, evaluation,
+    play and user code all step the same env)."""
+
+    def __init__(self, cfg, env, clip_actions: float | None = None):
+        if clip_actions is not None and not clip_actions > 0:
+            raise ConfigError(f"task '{env.task_name}': clip_actions must be positive or None, got {clip_actions}")
         self.env = env
+        self.clip_actions = clip_actions
         self.terms: dict[str, ActionTerm] = build_class_terms(cfg, env, "action")
         for name, term in self.terms.items():
             try:
@@ -69,8 +72,6 @@ class ActionManager:
         self.invalid_action = torch.zeros(n, dtype=torch.bool, device=env.device)
         """(N,) the last action had a non-finite entry: the env ends that step (terminated, counted as
         `Episode_Termination/invalid_action`)."""
-        self._clamp_bounds: tuple[torch.Tensor, torch.Tensor] | None = None
-        """`action_bounds()`, taken at the first action (after the startup events that may change joint limits)."""
 
     @property
     def active_terms(self) -> list[str]:
@@ -99,22 +100,6 @@ class ActionManager:
                              f"need exactly one")
         return names[0]
 
-    def action_bounds(self) -> tuple[torch.Tensor, torch.Tensor]:
-        """(low, high), each (num_envs, total_action_dim): per entry, the range the task declares through its
-        terms' clips (±inf where a term declares none). `process_action` clamps every action to it: a joint
-        target does not change, but the action history, the action-rate rewards and the observations of the last
-        action see the clamped value, the same whoever steps the env (training, eval, play, a GUI)."""
-        lows, highs = [], []
-        for term in self.terms.values():
-            bounds = term.action_bounds()
-            if bounds is None:
-                shape = (self.env.num_envs, term.action_dim)
-                bounds = (torch.full(shape, -math.inf, device=self.env.device),
-                          torch.full(shape, math.inf, device=self.env.device))
-            lows.append(bounds[0])
-            highs.append(bounds[1])
-        return torch.cat(lows, dim=-1), torch.cat(highs, dim=-1)
-
     def process_action(self, action: torch.Tensor) -> None:
         if action.shape != self.action.shape:
             raise ValueError(f"action shape {tuple(action.shape)} != expected {tuple(self.action.shape)}")
@@ -122,13 +107,11 @@ class ActionManager:
         self.prev_action.copy_(self.action)
         # the rule for a NaN or infinite entry: 0 (the term's offset, e.g. the default joint position), so that
         # observations and rewards stay finite; the env is ended and reset by the env step
-        if self._clamp_bounds is None:  # the first call runs eagerly, before any CUDA graph capture
-            self._clamp_bounds = self.action_bounds()
         finite = torch.isfinite(action)
         torch.logical_not(finite.all(dim=-1), out=self.invalid_action)
-        # a term's offsets can be far outside its declared range (the frozen locomotion policy's height command):
-        # unclamped, a policy that learned against the clamp feeds its own far-off output back as "last action"
-        self.action.copy_(torch.where(finite, torch.clamp(action, *self._clamp_bounds), 0.0))
+        if self.clip_actions is not None:
+            action = torch.clamp(action, -self.clip_actions, self.clip_actions)
+        self.action.copy_(torch.where(finite, action, 0.0))
         start = 0
         for term in self.terms.values():
             term.process_actions(self.action[:, start:start + term.action_dim])

@@ -115,6 +115,8 @@ def io_descriptor(env, agent_cfg) -> dict:
         "friction": rounded_list(robot.nominal_joint_friction),
         "actuators": actuators,
         "actions": actions,
+        # the env clamps the raw policy output to ±clip_actions before anything sees it (None: no clamp)
+        "clip_actions": env.action_manager.clip_actions,
         "observation_groups": groups,
         "observations": {g: _observation_terms(env, g) for g in groups},
         "commands": commands,

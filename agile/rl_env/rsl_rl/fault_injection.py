@@ -14,9 +14,8 @@ from agile.rl_env.rsl_rl.vecenv_wrapper import RslRlVecEnvWrapper
 
 
 class NanActionVecEnv(RslRlVecEnvWrapper):
-    def __init__(self, env, clip_actions: float | None, share: float, every_iterations: int,
-                 steps_per_iteration: int):
-        super().__init__(env, clip_actions=clip_actions)
+    def __init__(self, env, share: float, every_iterations: int, steps_per_iteration: int):
+        super().__init__(env)
         if not 0.0 < share <= 1.0:
             raise ValueError(f"NaN action share must be within (0, 1], got {share}")
         if every_iterations < 1:

@@ -69,7 +69,6 @@ class RunnerCommonCfg:
     max_iterations: int = 1000
     save_interval: int = 100
     logger: str = "tensorboard"
-    clip_actions: float | None = None
     check_for_nan: bool = True
     """rsl-rl checks every step's observations, rewards and dones for NaN (a host sync per check)."""
     torch_compile_mode: str | None = None
@@ -166,7 +165,7 @@ def policy_state_key(cfg: RunnerCfg) -> str:
     return f"{policy_obs_set(cfg)}_state_dict"
 
 
-RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "clip_actions", "teacher_task", "init_policy_task",
+RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "teacher_task", "init_policy_task",
                     "critic_warmup_iterations", "critic_warmup_learning_rate")
 
 

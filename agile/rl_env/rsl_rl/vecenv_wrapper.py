@@ -21,16 +21,12 @@ def flatten_groups(obs: TensorDict) -> TensorDict:
 
 
 class RslRlVecEnvWrapper(VecEnv):
-    """The env as rsl-rl's VecEnv: observation groups flattened per group, and the policy's actions clamped to
-    ±`clip_actions` when given (Isaac Lab's agent setting). The env itself clamps every action to the range the
-    task declares (`ActionManager.action_bounds`), for training and evaluation alike."""
+    """The env as rsl-rl's VecEnv: observation groups flattened per group. Actions pass unchanged: the env clamps
+    them (`clip_actions` of its config, Isaac Lab's agent setting), so that training steps the same env as
+    evaluation and play."""
 
-    def __init__(self, env: ManagerBasedRLEnv, clip_actions: float | None = None):
+    def __init__(self, env: ManagerBasedRLEnv):
         self.env = env.unwrapped if hasattr(env, "unwrapped") else env
-        self.clip_actions = clip_actions
-        self.action_low = self.action_high = None
-        if clip_actions is not None:
-            self.action_low, self.action_high = -clip_actions, clip_actions
         self.num_envs = self.env.num_envs
         self.num_actions = self.env.action_manager.total_action_dim
         self.max_episode_length = self.env.max_episode_length
@@ -53,11 +49,6 @@ class RslRlVecEnvWrapper(VecEnv):
         return flatten_groups(obs)
 
     def step(self, actions: torch.Tensor):
-        # NaN and infinite entries pass unclamped (here and in the env): the env replaces them, ends those envs and counts them
-        # (`Episode_Termination/invalid_action`); a clamp would silently turn an infinity into a valid action
-        if self.clip_actions is not None:
-            actions = torch.where(torch.isfinite(actions), torch.clamp(actions, self.action_low, self.action_high),
-                                  actions)
         obs, reward, terminated, truncated, extras = self.env.step(actions)
         dones = (terminated | truncated).to(torch.long)
         return flatten_groups(obs), reward, dones, {"time_outs": truncated, "log": extras["log"]}

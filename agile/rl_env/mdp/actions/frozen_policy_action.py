@@ -204,10 +204,6 @@ class FrozenPolicyAction(ActionTerm):
     def apply_actions(self) -> None:
         self.robot.joint_pos_target[:, self.joint_ids] = self.processed_actions
 
-    def action_bounds(self) -> tuple[torch.Tensor, torch.Tensor]:
-        n = self.env.num_envs
-        return self.command_low.expand(n, 4).clone(), self.command_high.expand(n, 4).clone()
-
     def reset(self, env_mask: torch.Tensor) -> None:
         m = env_mask.unsqueeze(-1)
         self.raw_actions.masked_fill_(m, 0.0)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import field
 
 import torch
@@ -57,16 +56,6 @@ class JointPositionAction(ActionTerm):
         if self.clip is not None:
             entry["clip"] = [rounded_list(self.clip[0]), rounded_list(self.clip[1])]
         return entry
-
-    def action_bounds(self) -> tuple[torch.Tensor, torch.Tensor] | None:
-        """The actions whose targets (action × scale + offset) reach the clip's ends; beyond them the target
-        stays at the end. A joint of scale 0 ignores its action: unbounded."""
-        if self.clip is None:
-            return None
-        ends = ((self.clip[0] - self.offset) / self.scale, (self.clip[1] - self.offset) / self.scale)
-        ignored = self.scale == 0.0
-        return (torch.where(ignored, -math.inf, torch.minimum(*ends)),
-                torch.where(ignored, math.inf, torch.maximum(*ends)))
 
     def apply_actions(self) -> None:
         self.robot.joint_pos_target[:, self.joint_ids] = self.processed_actions

@@ -49,7 +49,7 @@ def random_arms_and_waist_yaw_action_cfg() -> mdp.RandomActionCfg:
 
 @configclass
 class ActionsCfg:
-    # AGILE clips the raw action to ±4 (the agent config's clip_actions); the processed target is not clipped
+    # AGILE clips the raw action to ±4 (the env's clip_actions below); the processed target is not clipped
     joint_pos = mdp.JointPositionActionCfg(joint_names=LOWER_BODY_JOINTS, scale=0.25, use_default_offset=True,
                                            clip=None)
     random_upper_body_pos = random_arms_and_waist_yaw_action_cfg()
@@ -179,6 +179,7 @@ class G1VelocityTeacherEnvCfg(ManagerBasedRLEnvCfg):
     num_envs = 4096
     decimation = 4  # 50 Hz policy, 200 Hz physics
     episode_length_s = 30.0
+    clip_actions = 4.0  # AGILE's G1 velocity teacher: raw leg actions within ±4 (scale 0.25: ±1 rad of default)
     scene = SCENE
     sim = velocity_sim_cfg(max_contacts_per_world=256)
     commands = CommandsCfg()

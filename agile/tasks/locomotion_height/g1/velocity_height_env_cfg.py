@@ -40,6 +40,9 @@ TRUNK_CONTACT_BODIES = ["torso_link", "pelvis", ".*_hip_.*_link", ".*_knee_link"
 LEFT_FOOT_SCANNER, RIGHT_FOOT_SCANNER = "height_scanner_left_foot", "height_scanner_right_foot"
 STANDING_HEIGHT_M = 0.72
 """G1's pelvis height standing (AGILE `DEFAULT_PELVIS_HEIGHT`): the harness target and the walking height."""
+RAW_ACTION_CLIP = 6.0
+"""AGILE clips the raw leg actions to ±6 (the action scale turns 1 into a quarter of the effort limit's PD offset, so
+±6 spans every reachable target)."""
 
 
 # -- scene ---------------------------------------------------------------------------------------------
@@ -93,8 +96,8 @@ def random_waist_and_arms_action_cfg() -> mdp.RandomActionCfg:
 
 @configclass
 class ActionsCfg:
-    # AGILE clips the raw action to ±6 before scaling; JointPositionActionCfg.clip bounds the processed target
-    # instead, so it stays off here and the raw clip is the agent config's `clip_actions`
+    # AGILE clips the raw action to ±6 before scaling (RAW_ACTION_CLIP, the env's clip_actions);
+    # JointPositionActionCfg.clip bounds the processed target instead, so it stays off here
     joint_pos = mdp.JointPositionActionCfg(joint_names=LOWER_BODY_JOINTS, scale=LEG_ACTION_SCALE,
                                            use_default_offset=True, clip=None)
     random_upper_body_pos = random_waist_and_arms_action_cfg()
@@ -314,7 +317,7 @@ def velocity_height_env_cfg(observations, harness: bool) -> ManagerBasedRLEnvCfg
         actions = dataclasses.replace(actions, harness=None)
         curriculum = dataclasses.replace(curriculum, remove_harness=None)
     return ManagerBasedRLEnvCfg(
-        num_envs=4096, decimation=4, episode_length_s=30.0,
+        num_envs=4096, decimation=4, episode_length_s=30.0, clip_actions=RAW_ACTION_CLIP,
         scene=velocity_height_scene_cfg(), sim=velocity_sim_cfg(max_contacts_per_world=256),
         commands=CommandsCfg(), actions=actions, observations=observations, rewards=RewardsCfg(),
         terminations=TerminationsCfg(), events=velocity_height_events_cfg(), curriculum=curriculum)

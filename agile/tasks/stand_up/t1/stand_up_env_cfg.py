@@ -195,6 +195,9 @@ class T1StandUpEnvCfg(ManagerBasedRLEnvCfg):
     num_envs = 4096
     decimation = 4  # 50 Hz policy, 200 Hz physics
     episode_length_s = 15.0
+    # beyond ±10 a joint's step (0.1 x action) is cut at 1 rad anyway: the clamp loses no target and keeps the
+    # last-action observation and the action-rate penalties within the range that acts (the shipped policy learned so)
+    clip_actions = 10.0
     scene = SCENE
     # a lying robot touches the terrain with many bodies: at most 125 constraint rows in one world while 4096 envs
     # collected the fallen states and 138 in 120 PPO iterations (H200), under the default 300

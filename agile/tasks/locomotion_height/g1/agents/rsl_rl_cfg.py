@@ -6,16 +6,12 @@ from agile.rl_env.rsl_rl import (DistillationAlgorithmCfg, DistillationRunnerCfg
 from agile.tasks.locomotion.velocity_ppo_cfg import velocity_ppo_runner_cfg
 
 TEACHER_TASK = "Velocity-Height-G1-Teacher-v0"
-ACTION_CLIP = 6.0
-"""AGILE clips the raw leg actions to ±6 (the action scale turns 1 into a quarter of the effort limit's PD
-offset, so ±6 spans every reachable target)."""
 
 
 def _ppo_runner_cfg(experiment_name: str) -> PpoRunnerCfg:
     """AGILE G1VelocityHeightPpoRunnerCfg: the G1 velocity runner with entropy 0.01, 30k iterations."""
     cfg = velocity_ppo_runner_cfg(experiment_name=experiment_name, max_iterations=30_000)
     cfg.algorithm.entropy_coef = 0.01
-    cfg.clip_actions = ACTION_CLIP
     return cfg
 
 
@@ -37,7 +33,7 @@ def _distillation_runner_cfg(experiment_name: str, student: MlpModelCfg,
     """AGILE G1VelocityHeightDistillation*RunnerCfg: 10k iterations, 5 epochs, lr 1e-3, grad norm 1, MSE."""
     return DistillationRunnerCfg(
         experiment_name=experiment_name, num_steps_per_env=24, max_iterations=10_000, save_interval=250,
-        clip_actions=ACTION_CLIP, teacher_task=TEACHER_TASK, algorithm=algorithm, student=student,
+        teacher_task=TEACHER_TASK, algorithm=algorithm, student=student,
         teacher=_teacher_model_cfg())
 
 
