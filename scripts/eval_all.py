@@ -4,6 +4,7 @@ JSON per task, report.md and, where matplotlib is installed, PNG plots into --ou
     python scripts/eval_all.py --out eval_report                  # GPU: each task's eval settings and criteria
     python scripts/eval_all.py --device cpu --num_envs 2 --episode_length_s 1 --out /tmp/eval   # tiny CPU run
 
+The report names the GPU and the commit it was made at (outside a git checkout: $AGILE_SOURCE_COMMIT).
 Exit code 1 when a policy misses its criteria (fall rate, velocity errors, base-height error for tasks with a
 height command; see agile/tasks/catalogue.py). On CPU, or with fewer envs or shorter episodes than a task's
 eval settings, the run only proves that every policy loads and steps: criteria are reported, not checked.
@@ -43,7 +44,8 @@ def device_name(device: str) -> str:
 
 def source_commit() -> str:
     """The commit of this checkout the report was made at ("+ uncommitted changes" where the tree differs from
-    it), or "unknown" outside a git checkout (an installed package)."""
+    it); outside a git checkout (an installed package, a copied tree) the environment variable
+    AGILE_SOURCE_COMMIT where set, else "unknown"."""
     import subprocess
 
     def git(*args) -> str:
@@ -54,7 +56,7 @@ def source_commit() -> str:
         commit = git("rev-parse", "--short=12", "HEAD")
         dirty = git("status", "--porcelain", "--untracked-files=no")
     except (OSError, subprocess.CalledProcessError):
-        return "unknown"
+        return os.environ.get("AGILE_SOURCE_COMMIT", "unknown")
     return commit + (" + uncommitted changes" if dirty else "")
 
 
