@@ -219,20 +219,13 @@ def make_env(task: str, env_cfg, device: str, use_cache: bool = True):
     """The task's env (a ManagerBasedRLEnv, or a MultiAgentEnv for a multi-agent config), after the task's pre-learn
     step where its registration names one (`pre_learn_entry_point`, e.g. the stand-up tasks' fallen-state dataset;
     `use_cache=False`: collect again); a config error ends the script in one line."""
-    import agile.tasks
-    from agile.marl import MultiAgentEnv, MultiAgentEnvCfg
-    from agile.rl_env import ManagerBasedRLEnv
-    from agile.utils.config import ConfigError, load_entry_point
+    from agile.run.env import build_env
+    from agile.utils.config import ConfigError
 
     print(f"[agile] building {task}: {env_cfg.num_envs} envs on {device} (the first run on a machine compiles "
           f"the Warp kernels, a minute or two)", flush=True)
-    env_class = MultiAgentEnv if isinstance(env_cfg, MultiAgentEnvCfg) else ManagerBasedRLEnv
     try:
-        env = env_class(env_cfg, task_name=task, device=device)
-        pre_learn = agile.tasks.task_spec(task).kwargs.get("pre_learn_entry_point")
-        if pre_learn is not None:
-            load_entry_point(pre_learn)(env, task, use_cache=use_cache)
-        return env
+        return build_env(task, env_cfg, device, use_cache=use_cache)
     except (ConfigError, ValueError) as err:
         fail(str(err))
 

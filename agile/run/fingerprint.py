@@ -1,0 +1,239 @@
+"""Rollout fingerprints of the shipped policies: a shipped policy must never get worse without a test failing.
+
+A fingerprint is what one shipped policy file does in its task, on the CPU, from a fixed seed: a few envs, a few
+hundred steps, the task as registered plus the policy's training conditions (`conditions.yaml`, the motion of a
+per-motion policy), run for inference (no observation noise, no curriculum, no training-only aids). Per step it
+holds every action, every reward term (weighted, before the step's dt), every termination term, and for each
+observation term its mean and root mean square over the term's entries, per env. `first_divergence` compares two
+and names the first step, quantity and env that differ beyond the tolerance.
+
+A change that moves a fingerprint is a change to what a shipped policy meets: re-record it in the same commit,
+with a GPU eval showing that the policy still passes its criteria (`scripts/eval_all.py`), and say so.
+
+    python -m agile.run.fingerprint --check            # every shipped policy against its committed fingerprint
+    python -m agile.run.fingerprint --record [FILE...] # write them anew (agile/data/policy/fingerprints/)
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+POLICY_DIR = Path(__file__).resolve().parents[1] / "data" / "policy"
+"""agile.tasks.PRETRAINED_DIR, named here without importing torch (see PINNED_CPU_NUMERICS)."""
+FINGERPRINT_DIR = POLICY_DIR / "fingerprints"
+NUM_ENVS = 4
+NUM_STEPS = 100
+"""Two seconds at 50 Hz: long enough for a walking gait's contacts, pushes and resets of the first falls, short
+enough that rounding differences between CPUs stay far inside the tolerance (see RTOL, ATOL)."""
+SEED = 0
+RTOL, ATOL = 1e-3, 1e-4
+"""Measured on the CPU: a relative perturbation of 1e-6 on every action (rounding, another CPU's summation
+order) moves no recorded value by more than about 1e-5 within NUM_STEPS steps (docs/policies.md, "Rollout
+fingerprints"); a semantic change (an observation clamped, a reward term reweighted) moves them by 1e-2 or more."""
+
+
+PINNED_CPU_NUMERICS = {"MKL_CBWR": "AVX2", "ATEN_CPU_CAPABILITY": "avx2"}
+"""Environment variables that make torch compute alike on any x86-64 CPU with AVX2, read when torch loads: MKL's
+AVX2 and AVX-512 kernels round differently (measured: the T1 fingerprint parts at step 1 between them), and a
+physics step amplifies one rounding into a different solver result. tests/conftest.py and this module's main set
+them before torch is imported."""
+
+
+class UnpinnedNumericsError(RuntimeError):
+    """Fingerprints recorded or checked without PINNED_CPU_NUMERICS would depend on the machine's CPU."""
+
+
+def require_pinned_numerics() -> None:
+    wrong = {k: os.environ.get(k) for k, v in PINNED_CPU_NUMERICS.items() if os.environ.get(k) != v}
+    if wrong:
+        settings = " ".join(f"{k}={v}" for k, v in PINNED_CPU_NUMERICS.items())
+        raise UnpinnedNumericsError(f"fingerprints need {settings} in the environment before torch is imported "
+                                    f"(now {wrong}); tests/conftest.py and `python -m agile.run.fingerprint` set them")
+
+
+@dataclasses.dataclass(frozen=True)
+class ShippedPolicy:
+    file: Path
+    task: str
+    overrides: tuple[str, ...]
+    """Config overrides that give the policy's env: its training conditions, the motion it was trained on."""
+
+    @property
+    def fingerprint_file(self) -> Path:
+        return FINGERPRINT_DIR / f"{self.file.stem}.npz"
+
+
+def shipped_policies() -> list[ShippedPolicy]:
+    """Every policy file agile ships (agile/data/policy/*.pt), with the task and overrides it runs in."""
+    import agile.tasks
+
+    policies = []
+    for file in sorted(POLICY_DIR.glob("*.pt")):
+        task, _, variant = file.stem.partition(".")
+        overrides = [f"env.{o}" for o in agile.tasks.pretrained_policy_conditions(task)[1]]
+        if variant:  # one policy per value of a config field (a motion): <task>.<value>.pt
+            overrides.append(f"env.{agile.tasks.task_spec(task).kwargs['shipped_policy_per']}={variant}")
+        policies.append(ShippedPolicy(file=file, task=task, overrides=tuple(overrides)))
+    return policies
+
+
+@contextlib.contextmanager
+def one_torch_thread():
+    """One intra-op thread while recording: the same summation order whatever the machine's core count."""
+    import torch
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(threads)
+
+
+def record(policy: ShippedPolicy, num_envs: int = NUM_ENVS, num_steps: int = NUM_STEPS, seed: int = SEED,
+           extra_overrides: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
+    """The policy's rollout fingerprint on the CPU ({name: array}, each with the step as first axis).
+    `extra_overrides` change the env after the policy's own (what a test injects to show the check fails)."""
+    require_pinned_numerics()
+    import torch
+
+    import agile.tasks
+    from agile.rl_env.rsl_rl.checkpoints import load_checkpoint
+    from agile.run.env import build_env
+    from agile.run.policy import inference_cfg, load_policy
+    from agile.utils.config import apply_overrides
+
+    env_cfg, agent_cfg = agile.tasks.load_cfgs(policy.task)
+    env_cfg.num_envs, env_cfg.seed, agent_cfg.seed = num_envs, seed, seed
+    apply_overrides({"env": env_cfg, "agent": agent_cfg}, [*policy.overrides, *extra_overrides])
+    with one_torch_thread():
+        # a fallen-state dataset is collected anew: a cached one may come from another seed
+        env = build_env(policy.task, inference_cfg(env_cfg), "cpu", use_cache=False)
+        try:
+            act = load_policy(load_checkpoint(str(policy.file)), env, agent_cfg)
+            obs, _ = env.reset(seed=seed)
+            term_dims = env.observation_manager.term_dims
+            steps = [_observation_summary(obs, term_dims)]
+            with torch.inference_mode():
+                for _ in range(num_steps):
+                    actions = act(obs)
+                    obs, reward, _, _, _ = env.step(actions)
+                    row = {"actions": actions, "reward": reward}
+                    row.update({f"reward/{n}": v for n, v in env.reward_manager.step_reward.items()})
+                    row.update({f"termination/{n}": v.float()
+                                for n, v in env.termination_manager.term_dones.items()})
+                    steps.append({**row, **_observation_summary(obs, term_dims)})
+        finally:
+            env.close()
+    # the observations after reset are step 0; every other quantity starts at step 1 (NaN at step 0)
+    names = list(steps[1])
+    return {name: np.stack([_as_array(s.get(name), steps[1][name]) for s in steps]) for name in names}
+
+
+def _observation_summary(obs, term_dims: dict[str, dict[str, int]]) -> dict:
+    """Per observation term, (N, 2): the mean and the root mean square over its entries (a concatenated group is
+    split by the observation manager's `term_dims`)."""
+    import torch
+    from tensordict import TensorDict
+
+    out = {}
+    for group in obs.keys():
+        value = obs[group]
+        if isinstance(value, TensorDict):
+            terms = {k: value[k] for k in value.keys()}
+        else:
+            terms = dict(zip(term_dims[group], torch.split(value, list(term_dims[group].values()), dim=-1)))
+        for term, x in terms.items():
+            x = x.reshape(x.shape[0], -1).double()
+            out[f"obs/{group}/{term}"] = torch.stack((x.mean(dim=1), x.square().mean(dim=1).sqrt()), 1)
+    return out
+
+
+def _as_array(value, like) -> np.ndarray:
+    if value is None:
+        return np.full(tuple(like.shape), np.nan)
+    return value.detach().double().cpu().numpy()
+
+
+def save(path: Path, fingerprint: dict[str, np.ndarray]) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, **{k: v.astype(np.float32) for k, v in fingerprint.items()})
+
+
+def load(path: Path) -> dict[str, np.ndarray]:
+    with np.load(path) as data:
+        return {k: data[k] for k in data.files}
+
+
+def first_divergence(expected: dict[str, np.ndarray], actual: dict[str, np.ndarray], rtol: float = RTOL,
+                     atol: float = ATOL) -> str | None:
+    """None when `actual` matches `expected` within the tolerance; else where they first part: a quantity that
+    only one of them has, or the first step (then the first quantity in order: observations, actions, reward
+    terms, terminations) and env beyond |actual - expected| <= atol + rtol |expected|."""
+    only_expected, only_actual = sorted(set(expected) - set(actual)), sorted(set(actual) - set(expected))
+    if only_expected or only_actual:
+        return f"the rollout's quantities changed: gone {only_expected}, new {only_actual}"
+    for name in expected:
+        if expected[name].shape != actual[name].shape:
+            return f"{name}: shape {actual[name].shape}, recorded {expected[name].shape}"
+    # observations, actions, reward terms, terminations, then the summed reward (a term names the change better)
+    kinds = ("obs/", "actions", "reward/", "termination/", "reward")
+    order = sorted(expected, key=lambda n: (next(i for i, k in enumerate(kinds) if n.startswith(k)), n))
+    for step in range(len(expected["actions"])):
+        for name in order:
+            e, a = expected[name][step], actual[name][step].astype(np.float32)
+            bad = ~(np.abs(a - e) <= atol + rtol * np.abs(e)) & ~(np.isnan(a) & np.isnan(e))
+            if bad.any():
+                env, *entry = np.argwhere(bad)[0]
+                where = f"env {env}" + (f", entry {tuple(int(i) for i in entry)}" if entry else "")
+                return (f"step {step}: {name} ({where}) is {a[tuple(np.argwhere(bad)[0])]:.6g}, recorded "
+                        f"{e[tuple(np.argwhere(bad)[0])]:.6g}")
+    return None
+
+
+def main(argv=None) -> int:
+    if "torch" not in sys.modules:
+        os.environ.update(PINNED_CPU_NUMERICS)
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    mode = parser.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--check", action="store_true", help="compare every shipped policy with its fingerprint")
+    mode.add_argument("--record", action="store_true", help="write the fingerprints anew")
+    parser.add_argument("files", nargs="*", help="policy files (names in agile/data/policy/); default: all")
+    args = parser.parse_args(argv)
+    import warp as wp
+
+    wp.config.log_level = wp.LOG_WARNING  # no line per kernel module loaded
+    policies = shipped_policies()
+    if args.files:
+        by_name = {p.file.name: p for p in policies}
+        unknown = [f for f in args.files if Path(f).name not in by_name]
+        if unknown:
+            print(f"error: not shipped policies: {unknown}. Shipped: {sorted(by_name)}", file=sys.stderr)
+            return 2
+        policies = [by_name[Path(f).name] for f in args.files]
+    failed = 0
+    for policy in policies:
+        fingerprint = record(policy)
+        if args.record:
+            save(policy.fingerprint_file, fingerprint)
+            print(f"{policy.file.name}: recorded {policy.fingerprint_file}")
+            continue
+        if not policy.fingerprint_file.is_file():
+            print(f"{policy.file.name}: no fingerprint ({policy.fingerprint_file})")
+            failed += 1
+            continue
+        divergence = first_divergence(load(policy.fingerprint_file), fingerprint)
+        print(f"{policy.file.name}: {divergence or 'unchanged'}")
+        failed += divergence is not None
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
