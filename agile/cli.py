@@ -3,23 +3,22 @@
     agile list                                   # every registered task: kind, shipped policy
     agile show Velocity-T1-v0                    # the resolved MDP (builds the env on CPU with 1 env)
     agile diff Velocity-T1-v0 Velocity-G1-History-v0   # the config paths whose values differ
-    agile train --task Velocity-T1-v0 ...        # train|play|eval|eval_all|export: scripts/<name>.py, same python
+    agile train --task Velocity-T1-v0 ...        # train|play|eval|eval_all|export|benchmark|sim2mujoco|
+                                                 # plot_learning_curve: agile/run/<name>.py, in this process
 
-`agile <script> --help` shows that script's options.
+`agile <command> --help` shows that command's options.
 """
 
 from __future__ import annotations
 
 import argparse
-import subprocess
+import importlib
 import sys
-from pathlib import Path
 
 import yaml
 
-SCRIPTS_DIR = Path(__file__).resolve().parents[1] / "scripts"
-FORWARDED = ("train", "play", "eval", "eval_all", "export")
-"""Subcommands that run scripts/<name>.py with the arguments that follow."""
+FORWARDED = ("train", "play", "eval", "eval_all", "export", "benchmark", "sim2mujoco", "plot_learning_curve")
+"""Subcommands that run `agile.run.<name>.main` with the arguments that follow."""
 EXIT_USAGE = 2
 
 
@@ -94,12 +93,10 @@ def cmd_diff(args) -> None:
         print(f"{path}: {a!r} -> {b!r}")
 
 
-def forward(script: str, argv: list[str]) -> int:
-    """Run scripts/<script>.py with the same python and these arguments; its exit code."""
-    path = SCRIPTS_DIR / f"{script}.py"
-    if not path.is_file():
-        fail(f"{path} not found: `agile {script}` runs the scripts of a source checkout (pip install -e .)")
-    return subprocess.call([sys.executable, str(path), *argv])
+def forward(command: str, argv: list[str]) -> int:
+    """Run `agile.run.<command>.main(argv)` in this process; its exit code."""
+    sys.argv[0] = f"agile {command}"  # what argparse names in its usage line
+    return importlib.import_module(f"agile.run.{command}").main(argv) or 0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -117,7 +114,7 @@ def build_parser() -> argparse.ArgumentParser:
     diff.add_argument("task_b")
     diff.set_defaults(func=cmd_diff)
     for name in FORWARDED:  # listed for --help; their arguments are parsed by the scripts themselves
-        sub.add_parser(name, help=f"scripts/{name}.py (agile {name} --help for its options)", add_help=False)
+        sub.add_parser(name, help=f"agile/run/{name}.py (agile {name} --help for its options)", add_help=False)
     return parser
 
 

@@ -10,9 +10,7 @@ the body poses and velocities from the forward kinematics of the task's robot mo
 """
 
 from __future__ import annotations
-
-from utils import cli  # noqa: F401  (puts the repository on sys.path)
-from utils.cli import fail, new_parser
+from agile.run.common import fail, new_parser
 
 from agile.assets.unitree_g1 import g1_robot_cfg
 from agile.motion import save_motion

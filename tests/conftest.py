@@ -15,7 +15,7 @@ import torch  # noqa: E402
 import warp as wp  # noqa: E402
 
 wp.config.quiet = True
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))  # the one-off data generators
 
 
 def pytest_collection_modifyitems(config, items):

@@ -1,7 +1,7 @@
 """benchmark.py's timing helpers on CPU (the figures themselves come from the GPU machine)."""
 
 import torch
-from benchmark import restarter, slowest_world_solver_iterations, time_physics
+from agile.run.benchmark import restarter, slowest_world_solver_iterations, time_physics
 
 
 def test_raw_physics_restarts_from_the_state_it_was_given(t1_env):

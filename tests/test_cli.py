@@ -122,7 +122,7 @@ def test_cli_diff_list_and_unknown_task():
 def test_cli_forwards_help_to_the_scripts(script):
     result = run_agile(script, "--help")
     assert result.returncode == 0, result.stderr
-    assert result.stdout.startswith(f"usage: {script}.py")
+    assert result.stdout.startswith(f"usage: agile {script}")
 
 
 def test_show_resolves_regexes_dims_and_actuators():

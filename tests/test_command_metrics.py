@@ -112,7 +112,7 @@ def checkpoint_of_untrained_policy(env, task: str, path) -> str:
 
 
 def run_eval(task: str, checkpoint: str, out) -> dict:
-    import eval as eval_script
+    from agile.run import eval as eval_script
 
     eval_script.main(["--task", task, "--checkpoint", checkpoint, "--device", "cpu", "--num_envs", "2",
                       "--episode_length_s", "0.2", "--out", str(out)])

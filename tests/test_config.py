@@ -135,7 +135,7 @@ def test_inference_cfg_removes_exactly_the_training_only_action_terms():
 
     import agile.tasks
     from agile.rl_env.managers import is_training_only
-    from utils.policy import inference_cfg
+    from agile.run.policy import inference_cfg
 
     removed_by_task = {}
     for task in agile.tasks.registered_tasks():

@@ -12,7 +12,6 @@ import torch
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "scripts"))
 
 TEACHER = "Velocity-Height-G1-Teacher-v0"
 STUDENTS = {"Velocity-Height-G1-Student-Recurrent-v0": "velocity_height_g1_student_recurrent",
@@ -55,8 +54,8 @@ def test_one_distillation_iteration_and_its_export(student, teacher_run, tmp_pat
     assert descriptor["policy"]["recurrent"] == student.endswith("Recurrent-v0")
     exported = torch.jit.load(str(run_dir / "exported" / "policy.pt"))
     from agile.rl_env.rsl_rl import policy_obs_set
-    from utils import cli
-    from utils.policy import load_runner
+    from agile.run import common as cli
+    from agile.run.common import load_runner
 
     import agile.tasks
 

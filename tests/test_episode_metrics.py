@@ -113,7 +113,7 @@ def test_merged_view_holds_both_and_refuses_a_key_both_name():
 @pytest.fixture(scope="module")
 def stand_up(tmp_path_factory):
     """StandUp-T1 with 3 envs on 2 terrain rows after its pre-learn hook (a tiny fallen-state dataset)."""
-    from utils import cli
+    from agile.run import common as cli
 
     cache_dir = tmp_path_factory.mktemp("fallen_cache")
     env_cfg, agent_cfg = agile.tasks.load_cfgs(TASK)
@@ -206,7 +206,7 @@ def test_stand_up_registration_holds_the_issue_criterion():
 def test_eval_reports_the_stand_up_success(stand_up, tmp_path):
     """eval.py on StandUp-T1 (2 envs, 0.2 s episodes, every one from a fallen state, the lift removed): no robot
     stands at the time-out."""
-    import eval as eval_script
+    from agile.run import eval as eval_script
     from rsl_rl.runners import OnPolicyRunner
 
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict

@@ -48,7 +48,7 @@ def test_eval_all_refuses_a_task_without_policy(tmp_path):
 
 def test_verdict_fails_a_checked_run_that_misses_a_criterion(monkeypatch):
     monkeypatch.syspath_prepend(str(REPO / "scripts"))
-    from eval_all import report_markdown, verdict
+    from agile.run.eval_all import report_markdown, verdict
 
     result = {"task": "Velocity-T1-v0", "kind": "trainable", "device": "cuda:0", "num_envs": 512, "num_episodes": 1,
               "episode_length_s": 20.0, "fall_rate": 0.2, "lin_vel_error_mps": 0.1, "ang_vel_error_radps": 0.1,

@@ -1,7 +1,6 @@
 """Export (TorchScript, ONNX, IO descriptor) and the plain-MuJoCo replay of an exported policy."""
 
 import json
-import sys
 from pathlib import Path
 
 import gymnasium as gym
@@ -10,7 +9,6 @@ import newton
 import numpy as np
 import pytest
 import torch
-import warp as wp
 from rsl_rl.runners import OnPolicyRunner
 
 import agile.tasks
@@ -20,8 +18,7 @@ from agile.rl_env.rsl_rl.exporter import (example_input, export_policy, io_descr
                                           write_io_descriptor)
 from scenes import robot_sim
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
-import sim2mujoco  # noqa: E402
+from agile.run import sim2mujoco  # noqa: E402
 
 
 TASK = "Velocity-G1-History-v0"

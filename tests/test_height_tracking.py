@@ -7,7 +7,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import io
-import sys
 from pathlib import Path
 
 import pytest
@@ -22,8 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def env_and_agent(tmp_path_factory):
-    sys.path.insert(0, str(ROOT / "scripts"))
-    from utils import cli
+    from agile.run import common as cli
 
     env_cfg, agent_cfg = agile.tasks.load_cfgs(TASK)
     env_cfg.num_envs = 3

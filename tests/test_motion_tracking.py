@@ -259,7 +259,6 @@ def test_joint_default_randomisation_moves_defaults_and_action_offsets_together(
 # -- shipped policies: one per shipped motion --------------------------------------------------------------------
 
 def test_a_shipped_policy_per_shipped_motion_and_none_for_a_users_file():
-    import agile.tasks
     from agile.motion.motion_file import SHIPPED_MOTIONS_DIR
 
     env_cfg = agile.tasks.load_cfgs("MotionTracking-G1-v0")[0]
@@ -277,7 +276,7 @@ def test_a_shipped_policy_per_shipped_motion_and_none_for_a_users_file():
 
 
 def test_eval_without_a_checkpoint_runs_the_policy_of_the_chosen_motion(tmp_path, capsys):
-    import eval as eval_script
+    from agile.run import eval as eval_script
 
     out = tmp_path / "eval.json"
     eval_script.main(["--task", "MotionTracking-G1-v0", "--device", "cpu", "--num_envs", "2", "--episode_length_s",

@@ -10,7 +10,7 @@ import torch
 
 import agile.tasks  # noqa: F401
 from agile.assets.booster_t1 import t1_robot_cfg
-from agile.marl import AgentCfg, MultiAgentEnv, MultiAgentEnvCfg, Schedule
+from agile.marl import MultiAgentEnv, MultiAgentEnvCfg, Schedule
 from agile.marl.rsl_rl import AgentGroupCfg, GroupVecEnv, MultiAgentRunnerCfg
 from agile.marl.runner import MultiAgentRunner
 from agile.rl_env.rsl_rl import flatten_groups

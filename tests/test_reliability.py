@@ -128,7 +128,7 @@ def test_training_state_round_trip_restores_adaptive_curricula(capsys):
 
 
 def test_resume_skips_a_truncated_newest_checkpoint(tmp_path, capsys):
-    from utils import cli
+    from agile.run import common as cli
 
     run = tmp_path / "exp" / "2026-01-01_00-00-00"
     run.mkdir(parents=True)

@@ -1,6 +1,7 @@
 """The scripts as a user runs them (subprocesses, CPU)."""
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -38,14 +39,37 @@ def trained_run(tmp_path_factory):
     return next((log_root / "velocity_t1").iterdir()), args
 
 
-def test_help_of_every_script():
-    for script in ("train.py", "play.py", "eval.py", "benchmark.py", "export.py"):
-        code, out = run(f"scripts/{script}", "--help")
-        assert code == 0 and "--task" in out, out
-        assert "(default: " in out, f"{script} --help shows no defaults"
-        if script != "benchmark.py":  # the override syntax, with an example of each kind
-            assert "weight=2.0" in out and "activation=relu" in out and "hidden_dims=[128, 128]" in out \
-                and "terrain=null" in out, out
+def option_help(help_text: str) -> dict[str, str]:
+    """{option: its help text} from argparse's --help output."""
+    entries, name = {}, None
+    for line in help_text.splitlines():
+        if line.startswith("  -"):
+            invocation, _, text = line.strip().partition("  ")
+            name = invocation.split(",")[0].split()[0]
+            entries[name] = text.strip()
+        elif name is not None and line.startswith("    "):
+            entries[name] += " " + line.strip()
+        else:
+            name = None
+    return {k: v for k, v in entries.items() if k != "-h"}
+
+
+@pytest.mark.parametrize("command", ["train", "play", "eval", "eval_all", "benchmark", "export", "sim2mujoco"])
+def test_help_of_every_command(command, capsys):
+    import importlib
+
+    with pytest.raises(SystemExit) as exit_info:
+        importlib.import_module(f"agile.run.{command}").main(["--help"])
+    out = capsys.readouterr().out
+    assert exit_info.value.code == 0 and out.startswith("usage:"), out
+    assert "(default: " in out, f"{command} --help shows no defaults"
+    helps = option_help(out)
+    assert not [name for name, text in helps.items() if "(default: None)" in text or text.count("(default") > 1], out
+    assert not [name for name, text in helps.items() if not re.sub(r"\(default: [^)]*\)", "", text).strip()
+                ], f"{command}: options without help"
+    if command in ("train", "play", "eval", "export"):  # the override syntax, with an example of each kind
+        assert "weight=2.0" in out and "activation=relu" in out and "hidden_dims=[128, 128]" in out \
+            and "terrain=null" in out, out
 
 
 def test_a_quiet_run_prints_no_library_noise(trained_run):
@@ -176,7 +200,7 @@ def test_a_shipped_policy_runs_in_the_env_it_was_trained_in(tmp_path, monkeypatc
     import argparse
 
     import agile.tasks
-    from utils import cli
+    from agile.run import common as cli
 
     conditions = tmp_path / "conditions.yaml"
     conditions.write_text("Velocity-Height-G1-Teacher-v0:\n  trained_on: flat ground\n"
@@ -297,7 +321,7 @@ def test_train_records_clips_every_n_iterations(tmp_path):
 
 
 def test_learning_curve_resumption_replaces_the_abandoned_branch():
-    from plot_learning_curve import join_resumed
+    from agile.run.plot_learning_curve import join_resumed
 
     run = [(0, 0.0), (1, 1.0), (2, 2.0), (3, 3.0)]
     resumed_from_1 = [(1, 10.0), (2, 20.0), (3, 30.0), (4, 40.0)]
@@ -318,7 +342,7 @@ def _write_run(folder, values: dict[str, list[float]], start: int = 0) -> None:
 
 
 def test_learning_curve_reads_run_folders_and_agent_groups(tmp_path):
-    from plot_learning_curve import curves_of, read_run
+    from agile.run.plot_learning_curve import curves_of, read_run
 
     _write_run(tmp_path / "run_a", {"Train/mean_reward": [1.0, 2.0, 3.0]})
     _write_run(tmp_path / "run_b", {"Train/mean_reward": [20.0, 30.0]}, start=1)  # resumed from iteration 1
@@ -342,7 +366,7 @@ def test_learning_curve_refuses_a_folder_without_logs(tmp_path):
 
 def test_error_by_command_bins_hand_values():
     import torch
-    from eval import ErrorByCommand
+    from agile.run.eval import ErrorByCommand
 
     by_speed = ErrorByCommand((0.05, 0.5), "cpu")
     commanded = torch.tensor([0.0, 0.3, 0.4, 0.7])

@@ -88,11 +88,10 @@ def _small_env_cfg(cache_dir: Path, num_rows: int = 2):
 @pytest.fixture(scope="module")
 def stand_up_env(tmp_path_factory):
     """StandUp-T1 with 3 envs on 2 terrain rows, after its pre-learn hook: (env, agent cfg, cache dir, printed)."""
-    sys.path.insert(0, str(ROOT / "scripts"))
     import contextlib
     import io
 
-    from utils import cli
+    from agile.run import common as cli
 
     cache_dir = tmp_path_factory.mktemp("fallen_cache")
     env_cfg, agent_cfg = _small_env_cfg(cache_dir)
@@ -155,7 +154,7 @@ def _build(env_cfg) -> tuple[object, str]:
     import contextlib
     import io
 
-    from utils import cli
+    from agile.run import common as cli
 
     out = io.StringIO()
     with contextlib.redirect_stdout(out):

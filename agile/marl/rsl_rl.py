@@ -12,15 +12,13 @@ every group's learner at its own slots.
 
 from __future__ import annotations
 
-import os
-import time
 
 import torch
 from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
 from agile.marl.env import AgentStep, MultiAgentEnv
-from agile.rl_env.rsl_rl import PpoRunnerCfg, flatten_groups, to_rsl_rl_dict
+from agile.rl_env.rsl_rl import PpoRunnerCfg, flatten_groups
 from agile.utils.config import ConfigError, configclass
 
 TRAINING_MODES = ("normal", "shared", "joint")

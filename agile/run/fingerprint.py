@@ -8,7 +8,7 @@ observation term its mean and root mean square over the term's entries, per env.
 and names the first step, quantity and env that differ beyond the tolerance.
 
 A change that moves a fingerprint is a change to what a shipped policy meets: re-record it in the same commit,
-with a GPU eval showing that the policy still passes its criteria (`scripts/eval_all.py`), and say so.
+with a GPU eval showing that the policy still passes its criteria (`agile eval_all`), and say so.
 
     python -m agile.run.fingerprint --check            # every shipped policy against its committed fingerprint
     python -m agile.run.fingerprint --record [FILE...] # write them anew (agile/data/policy/fingerprints/)

@@ -13,4 +13,4 @@ from agile.sim.simulation import Simulation, env_origins_grid
 __all__ = ["GROUND", "Articulation", "ArticulationCfg", "BoxShapeCfg", "CapsuleShapeCfg", "ContactSensor",
            "ContactSensorCfg", "CylinderShapeCfg", "Entity", "HeightScannerCfg", "MeshFileShapeCfg",
            "ModelFileShapeCfg", "RigidObject", "RigidObjectCfg", "Scene", "SceneCfg", "SimCfg", "Simulation",
-           "SolverCfg", "env_origins_grid", "resolve_names", "resolve_values"]
+           "SolverCfg", "SphereShapeCfg", "env_origins_grid", "resolve_names", "resolve_values"]

@@ -24,7 +24,6 @@ import math
 
 import newton
 import numpy as np
-import torch
 import warp as wp
 
 from agile.sim.terrain import TerrainData

@@ -6,7 +6,6 @@ terrain curriculum, domain randomisation, pushes, and random head and arm motion
 
 from __future__ import annotations
 
-import math
 
 from agile.assets.booster_t1 import LEG_JOINTS, t1_robot_cfg
 from agile.rl_env import ManagerBasedRLEnvCfg, mdp

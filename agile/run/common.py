@@ -1,4 +1,4 @@
-"""What every script shares: task/device arguments, config overrides, log folders."""
+"""What every command shares: task/device arguments, config overrides, log folders, one-line failures."""
 
 from __future__ import annotations
 
@@ -11,8 +11,7 @@ from datetime import datetime
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
-if str(REPO_ROOT) not in sys.path:  # run from a checkout without installing
-    sys.path.insert(0, str(REPO_ROOT))
+"""The source checkout agile runs from (with `pip install -e .`); an installed package's is site-packages."""
 
 CPU_DEFAULT_NUM_ENVS = 4
 EXIT_USAGE = 2
@@ -25,8 +24,15 @@ OVERRIDE_HELP = ("config overrides as path=value, any field of the env or agent 
                  "(a quoted Python literal) 'agent.actor.hidden_dims=[128, 128]', None env.scene.terrain=null")
 
 
-class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
-    """--help shows each option's default and keeps the description's line breaks."""
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """--help keeps the description's line breaks and shows each option's default where it has one that its help
+    does not already name (no "(default: None)" after "(default: the task's)")."""
+
+    def _get_help_string(self, action):
+        help_text = action.help or ""
+        if "(default" in help_text or action.default in (None, False, argparse.SUPPRESS) or not action.option_strings:
+            return help_text
+        return help_text + " (default: %(default)s)"
 
 
 def fail(message: str):
@@ -269,3 +275,23 @@ def dump_configs(log_dir: str, env_cfg, agent_cfg) -> None:
     params.mkdir(parents=True, exist_ok=True)
     (params / "env.yaml").write_text(yaml.safe_dump(to_dict(env_cfg), sort_keys=False))
     (params / "agent.yaml").write_text(yaml.safe_dump(to_dict(agent_cfg), sort_keys=False))
+
+
+def load_runner(checkpoint: dict, env, agent_cfg):
+    """`agile.run.policy.load_runner`, a checkpoint of the wrong kind reported in one line."""
+    from agile.run import policy
+
+    try:
+        return policy.load_runner(checkpoint, env, agent_cfg, verbose=VERBOSE)
+    except policy.PolicyMismatchError as err:
+        fail(str(err))
+
+
+def load_policy(checkpoint: dict, env, agent_cfg):
+    """`agile.run.policy.load_policy`, a checkpoint of the wrong kind reported in one line."""
+    from agile.run import policy
+
+    try:
+        return policy.load_policy(checkpoint, env, agent_cfg, verbose=VERBOSE)
+    except policy.PolicyMismatchError as err:
+        fail(str(err))

@@ -95,7 +95,7 @@ class VideoRecorder(CameraVideo):
         step_dt = env.mean_slot_dt_s if multi_agent else env.step_dt
         self.reference = None
         if reference:
-            from utils.reference_view import ReferenceScene
+            from agile.run.reference_view import ReferenceScene
 
             self.reference = ReferenceScene(env, env_index)
         # the reference scene holds only the recorded env's world, as its world 0

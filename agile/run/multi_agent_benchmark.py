@@ -12,7 +12,7 @@ import argparse
 import json
 import time
 
-from utils import cli
+from agile.run import common as cli
 
 
 def seconds_per_simulated_second(step, simulated_s_per_call: float, calls: int, device) -> float:
@@ -33,7 +33,7 @@ def seconds_per_simulated_second(step, simulated_s_per_call: float, calls: int, 
 def measure_world(task: str, num_envs: int, device: str | None, calls: int, overrides: list[str]) -> dict:
     import torch
 
-    from utils.multi_agent import make_world
+    from agile.run.multi_agent import make_world
 
     args = argparse.Namespace(task=task, num_envs=num_envs, device=device, seed=None, overrides=overrides)
     env_cfg, _, device = cli.load_task(args)

@@ -7,8 +7,8 @@ import json
 import os
 from pathlib import Path
 
-from utils import cli
-from utils.policy import inference_cfg
+from agile.run import common as cli
+from agile.run.policy import inference_cfg
 
 
 def is_multi_agent(task: str) -> bool:
@@ -206,7 +206,7 @@ def check_run_folder(checkpoint: str | None) -> str:
 
 def run_main(args, episodes: int | None, num_steps: int | None) -> dict:
     """eval.py (`episodes` per env) and play.py (`num_steps` steps of the world) for a multi-agent task."""
-    from utils.recording import VideoRecorder
+    from agile.run.recording import VideoRecorder
 
     run_dir = check_run_folder(args.checkpoint)
     env_cfg, agent_cfg, device = cli.load_task(args)

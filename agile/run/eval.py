@@ -1,0 +1,357 @@
+"""Evaluate a policy over the task's command range: tracking errors, fall rate, episode length, rewards.
+
+    agile eval --task Velocity-G1-History-v0 --num_envs 256 --num_episodes 2   # shipped policy
+    agile eval --task Velocity-T1-v0 --checkpoint model.pt --device cpu --num_envs 2 --out eval.json
+    agile eval --task Velocity-G1-History-v0 --device cpu --num_envs 2 --command 0.5 0 0   # walk
+    agile eval --task Velocity-Height-G1-v0 --num_envs 1024 --sweep_lin_vel_x -0.5 0 0.5 \
+        --sweep_base_height 0.4 0.56 0.72 --out sweep.json                      # a table and sweep.png
+
+Each env runs `num_episodes` episodes of `episode_length_s` (pushes off unless --pushes). Commands are
+drawn by the task's command term (uniform over its ranges, a share standing), or fixed with --command.
+Without --checkpoint the policy shipped with agile for the task is evaluated. Prints and writes JSON.
+Velocity errors are measured for tasks with a velocity command, the height error (commanded minus measured above
+the terrain) for those with a base-height command; every task reports its episode metrics as means over the ended
+episodes under "episode_metrics": its command terms' (`CommandTerm.metrics`, "<term>/<name>": the motion-tracking
+errors, pick-and-place success) and its metric terms' (the env cfg's `metrics`, "<name>": the stand-up success).
+JSON files written before these were merged have the command terms' under "command_metrics".
+"""
+
+from __future__ import annotations
+
+import json
+import os
+
+from agile.run import common as cli
+
+from agile.run import multi_agent
+from agile.run.common import load_policy
+from agile.run.policy import inference_cfg
+
+
+def velocity_command_name(env, command_name: str | None = None) -> str | None:
+    """The command whose velocity errors are measured: `command_name`, or the one command term with a velocity
+    layout (`CommandTerm.command_fields`); None where the task has none (motion tracking, pick-and-place)."""
+    from agile.rl_env.managers.command_manager import VELOCITY_FIELDS
+
+    terms = env.command_manager.terms
+    with_velocity = [name for name, term in terms.items() if term.command_fields[:3] == VELOCITY_FIELDS]
+    if command_name is not None and command_name not in with_velocity:
+        cli.fail(f"command '{command_name}' is not a velocity command; the task's velocity commands: {with_velocity}")
+    if command_name is None and len(with_velocity) > 1:
+        cli.fail(f"the task has several velocity commands {with_velocity}: name the one to evaluate")
+    return command_name or (with_velocity[0] if with_velocity else None)
+
+
+def height_command_sensor(env, command_name: str | None) -> str | None:
+    """The height scanner that measures the commanded base height, for a velocity command with a height."""
+    if command_name is None:
+        return None
+    term = env.command_manager.get_term(command_name)
+    return term.cfg.height_sensor_name if "base_height_m" in term.command_fields else None
+
+
+SPEED_BIN_EDGES_MPS = (0.05, 0.25, 0.5, 0.75, 1.0)
+"""Bins of the commanded planar speed |(vx, vy)| for the velocity error by command: [0, 0.05) is standing still."""
+HEIGHT_BIN_EDGES_M = (0.45, 0.5, 0.55, 0.6, 0.65, 0.7)
+"""Bins of the commanded base height for the height error by command."""
+
+
+class ErrorByCommand:
+    """A tracking error summed per bin of a commanded value over the steps alive, on the device (no host sync
+    per step): the error as a function of what was asked."""
+
+    def __init__(self, edges: tuple[float, ...], device):
+        import torch
+
+        self.edges = edges
+        self.edges_t = torch.tensor(edges, device=device)
+        self.error_sum = torch.zeros(len(edges) + 1, device=device)
+        self.steps = torch.zeros(len(edges) + 1, device=device)
+
+    def add(self, commanded, error, alive) -> None:
+        import torch
+
+        bins = torch.bucketize(commanded, self.edges_t, right=True)
+        self.error_sum.index_add_(0, bins, error * alive)
+        self.steps.index_add_(0, bins, alive)
+
+    def rows(self) -> list[dict]:
+        """[{"command": [low, high], "error": mean, "steps": n}] for the bins that saw a step (high None: open)."""
+        bounds = [0.0, *self.edges, None]
+        return [{"command": [bounds[i], bounds[i + 1]], "error": float(e / n), "steps": int(n)}
+                for i, (e, n) in enumerate(zip(self.error_sum.tolist(), self.steps.tolist())) if n > 0]
+
+
+def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = None, recorders=()) -> dict:
+    """Sums per env over `num_episodes` episodes of every env: (N,) tensors of tracking errors over the steps
+    alive (with a velocity command), steps alive, episodes ended, falls, ended episodes' lengths and the episode
+    metrics of the ended episodes ("episode_metric/<key>", keys of `env.last_episode_metrics`); each reward term's
+    total; and the errors by commanded speed (and height)."""
+    import torch
+
+    from agile.rl_env.mdp import base_height_above_ground
+
+    n = env.num_envs
+    zeros = lambda: torch.zeros(n, device=env.device)  # noqa: E731
+    command_name = velocity_command_name(env, command_name)
+    keys = ["steps_alive", "episodes", "falls", "ended_length_steps"]
+    keys += ["lin_vel_error_mps", "ang_vel_error_radps"] if command_name is not None else []
+    height_sensor = height_command_sensor(env, command_name)
+    keys += ["base_height_error_m"] if height_sensor is not None else []
+    sums = {key: zeros() for key in keys}
+    terminations = env.termination_manager
+    failure_terms = [name for name, cfg in terminations.term_cfgs.items() if not cfg.time_out]
+    sums.update({f"ended_by/{name}": zeros() for name in failure_terms})
+    last_metrics = env.last_episode_metrics  # commands' and metric terms', written in place for the ended envs
+    sums.update({f"episode_metric/{key}": zeros() for key in last_metrics})
+    episode_steps = zeros()
+    term_sums = {name: torch.zeros((), device=env.device) for name in env.reward_manager.weights}
+    robot = env.scene[env.action_manager.policy_entity_name()]  # the robot the policy drives
+    by_speed = ErrorByCommand(SPEED_BIN_EDGES_MPS, env.device)
+    by_height = ErrorByCommand(HEIGHT_BIN_EDGES_M, env.device)
+    obs, _ = env.reset()
+    with torch.inference_mode():
+        for step in range(num_episodes * env.max_episode_length):
+            if command_name is not None:
+                command = env.command_manager.get_command(command_name).clone()
+            obs, reward, terminated, truncated, _ = env.step(policy(obs))
+            for recorder in recorders:
+                recorder.record(env, step * env.step_dt)
+            done = terminated | truncated
+            alive = (~done).float()  # the state of a reset env is its new episode's first state
+            if command_name is not None:
+                lin_vel_error = torch.linalg.norm(command[:, :2] - robot.root_lin_vel_b[:, :2], dim=1)
+                sums["lin_vel_error_mps"] += lin_vel_error * alive
+                by_speed.add(torch.linalg.norm(command[:, :2], dim=1), lin_vel_error, alive)
+                sums["ang_vel_error_radps"] += (command[:, 2] - robot.root_ang_vel_b[:, 2]).abs() * alive
+            if height_sensor is not None:
+                height_error = (command[:, 3] - base_height_above_ground(env, sensor_name=height_sensor)).abs()
+                sums["base_height_error_m"] += height_error * alive
+                by_height.add(command[:, 3], height_error, alive)
+            sums["steps_alive"] += alive
+            for name in term_sums:
+                term_sums[name] += env.reward_manager.step_reward[name].sum()
+            episode_steps += 1
+            sums["ended_length_steps"] += episode_steps * done
+            episode_steps.masked_fill_(done, 0.0)
+            sums["episodes"] += done.float()
+            sums["falls"] += terminated.float()
+            for name in failure_terms:  # which failure ended the episode (several can at once)
+                sums[f"ended_by/{name}"] += terminations.term_dones[name].float()
+            for key, value in last_metrics.items():
+                sums[f"episode_metric/{key}"] += value * done
+    by_command = {"lin_vel_error_mps_by_speed_mps": by_speed.rows()} if command_name is not None else {}
+    if height_sensor is not None:
+        by_command["base_height_error_m_by_height_m"] = by_height.rows()
+    return {"sums": sums, "reward_totals": term_sums, "steps": num_episodes * env.max_episode_length,
+            "error_by_command": by_command}
+
+
+def summarise(sums: dict, step_dt: float, mask=None) -> dict:
+    """The metrics of the envs in `mask` (all envs if None) from `evaluate_per_env`'s sums."""
+    total = {key: float(value.sum() if mask is None else value[mask].sum()) for key, value in sums.items()}
+    episodes = max(total["episodes"], 1.0)
+    steps_alive = max(total["steps_alive"], 1.0)
+    metrics = {"episodes": int(total["episodes"]), "falls": int(total["falls"]),
+               "fall_rate": total["falls"] / episodes,
+               "mean_episode_length_s": total["ended_length_steps"] * step_dt / episodes}
+    for key in ("lin_vel_error_mps", "ang_vel_error_radps", "base_height_error_m"):  # what the task commands
+        if key in total:
+            metrics[key] = total[key] / steps_alive
+    # "falls" are the episodes a failure term ended; by term (an episode two terms ended counts for both)
+    metrics["falls_by_term"] = {key.split("/", 1)[1]: int(value) for key, value in total.items()
+                                if key.startswith("ended_by/")}
+    metrics["episode_metrics"] = {key.split("/", 1)[1]: value / episodes for key, value in total.items()
+                                  if key.startswith("episode_metric/")}
+    return metrics
+
+
+def evaluate(env, policy, num_episodes: int, command_name: str | None = None, recorders=()) -> dict:
+    """Fall rate, episode length and the episode metrics over every env's `num_episodes` episodes; the velocity
+    errors (over the steps alive) for a velocity command, the base-height error where it has a height."""
+    result = evaluate_per_env(env, policy, num_episodes, command_name, recorders)
+    metrics = {"num_envs": env.num_envs, **summarise(result["sums"], env.step_dt)}
+    metrics["reward_per_step"] = {name: float(v) / (env.num_envs * result["steps"])
+                                  for name, v in result["reward_totals"].items()}
+    metrics["error_by_command"] = result["error_by_command"]
+    return metrics
+
+
+def sweep_cells(lin_vel_x_mps: list[float], base_height_m: list[float] | None) -> list[tuple[float, ...]]:
+    """The commands of a sweep grid: (vx, 0, 0) or (vx, 0, 0, h), vx fastest."""
+    if base_height_m is None:
+        return [(vx, 0.0, 0.0) for vx in lin_vel_x_mps]
+    return [(vx, 0.0, 0.0, h) for h in base_height_m for vx in lin_vel_x_mps]
+
+
+def sweep(env, policy, num_episodes: int, cells: list[tuple[float, ...]], command_name: str | None = None) -> list:
+    """Each env holds one cell's command (env i: cell i mod cells) for all its episodes; metrics per cell."""
+    import torch
+
+    command_name = velocity_command_name(env, command_name)
+    if command_name is None:
+        cli.fail(f"a sweep sets velocity commands; this task has none (commands: {env.command_manager.active_terms})")
+    term = env.command_manager.get_term(command_name)
+    if len(cells[0]) != term.command.shape[1]:
+        cli.fail(f"the sweep gives {len(cells[0])} command values; {command_name} has {term.command.shape[1]} "
+                 "(--sweep_base_height is for tasks with a height command)")
+    if env.num_envs < len(cells):
+        cli.fail(f"the sweep has {len(cells)} cells: use at least that many envs (--num_envs)")
+    cell_of_env = torch.arange(env.num_envs, device=env.device) % len(cells)
+    term.set_fixed_command(torch.tensor(cells, device=env.device)[cell_of_env])
+    result = evaluate_per_env(env, policy, num_episodes, command_name)
+    rows = []
+    for i, cell in enumerate(cells):
+        metrics = summarise(result["sums"], env.step_dt, mask=cell_of_env == i)
+        rows.append({"command": list(cell), "num_envs": int((cell_of_env == i).sum()), **metrics})
+    return rows
+
+
+def sweep_table(rows: list) -> str:
+    """The sweep as a Markdown table."""
+    height = "base_height_error_m" in rows[0]
+    header = "| vx [m/s] |" + (" height [m] |" if height else "") + " fall rate | vel error [m/s] |" + \
+        (" height error [m] |" if height else "") + " episodes |"
+    lines = [header, "|" + "---|" * (header.count("|") - 1)]
+    for row in rows:
+        cells = [f"{row['command'][0]:+.2f}"] + ([f"{row['command'][3]:.2f}"] if height else [])
+        cells += [f"{row['fall_rate']:.3f}", f"{row['lin_vel_error_mps']:.3f}"]
+        cells += [f"{row['base_height_error_m']:.3f}"] if height else []
+        cells += [str(row["episodes"])]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def sweep_heat_map(rows: list, path: str, title: str) -> None:
+    """A PNG with one heat map per metric over (vx, height) (or a row of vx without a height command)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    height = "base_height_error_m" in rows[0]
+    vxs = sorted({r["command"][0] for r in rows})
+    hs = sorted({r["command"][3] for r in rows}) if height else [0.0]
+    metrics = ["fall_rate", "lin_vel_error_mps"] + (["base_height_error_m"] if height else [])
+    fig, axes = plt.subplots(1, len(metrics), figsize=(4.5 * len(metrics), 3.6), squeeze=False)
+    for ax, metric in zip(axes[0], metrics):
+        grid = np.full((len(hs), len(vxs)), np.nan)
+        for r in rows:
+            grid[hs.index(r["command"][3]) if height else 0, vxs.index(r["command"][0])] = r[metric]
+        image = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis")
+        ax.set_xticks(range(len(vxs)), [f"{v:+.2f}" for v in vxs])
+        ax.set_yticks(range(len(hs)), [f"{h:.2f}" for h in hs] if height else [""])
+        ax.set_xlabel("commanded vx [m/s]")
+        ax.set_ylabel("commanded base height [m]" if height else "")
+        for (i, j), value in np.ndenumerate(grid):
+            ax.text(j, i, f"{value:.3f}", ha="center", va="center", color="w", fontsize=7)
+        ax.set_title(metric)
+        fig.colorbar(image, ax=ax)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+def run_sweep(args, env, policy, checkpoint: str, device: str) -> None:
+    rows = sweep(env, policy, args.num_episodes, sweep_cells(args.sweep_lin_vel_x, args.sweep_base_height))
+    print(sweep_table(rows))
+    if args.out:
+        result = {"task": args.task, "checkpoint": checkpoint, "device": device, "num_envs": env.num_envs,
+                  "episodes_per_env": args.num_episodes, "episode_length_s": args.episode_length_s, "cells": rows}
+        with open(args.out, "w") as f:
+            json.dump(result, f, indent=2)
+        print(f"[agile] sweep: {args.out}")
+        plot_sweep(args.out)
+
+
+def plot_sweep(json_path: str) -> None:
+    """The heat map of a sweep's JSON, next to it (.png); where matplotlib is missing, how to make it later."""
+    import importlib.util
+
+    if importlib.util.find_spec("matplotlib") is None:
+        print(f"[agile] no heat map: matplotlib is missing (pip install 'agile[plot]', then "
+              f"agile eval --plot_sweep {json_path})")
+        return
+    with open(json_path) as f:
+        result = json.load(f)
+    png = os.path.splitext(json_path)[0] + ".png"
+    sweep_heat_map(result["cells"], png, f"{result['task']}: {result['num_envs']} envs, "
+                                         f"{result['episodes_per_env']} x {result['episode_length_s']:g} s episodes")
+    print(f"[agile] heat map: {png}")
+
+
+def main(argv=None) -> None:
+    parser = cli.new_parser(__doc__)
+    cli.add_common_args(parser)
+    parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (default: the shipped policy); "
+                        "for a multi-agent task its training run folder (the newest model of each group)")
+    parser.add_argument("--command", type=float, nargs=3, default=None, metavar=("VX", "VY", "WZ"),
+                        help="a fixed velocity command [m/s, m/s, rad/s] for every env")
+    parser.add_argument("--num_episodes", type=int, default=1, help="episodes per env")
+    parser.add_argument("--episode_length_s", type=float, default=20.0, help="length of each evaluated episode [s]")
+    parser.add_argument("--pushes", action="store_true", help="keep the task's interval events (pushes)")
+    parser.add_argument("--sweep_lin_vel_x", type=float, nargs="+", default=None, metavar="VX",
+                        help="evaluate a grid of fixed commands instead: these forward speeds [m/s] (vy = wz = 0) ...")
+    parser.add_argument("--sweep_base_height", type=float, nargs="+", default=None, metavar="H",
+                        help="... times these base heights [m] (tasks with a height command); a table, and with "
+                        "--out a heat map next to the JSON (.png)")
+    parser.add_argument("--plot_sweep", default=None, metavar="SWEEP.json",
+                        help="only draw the heat map of a sweep's JSON (no env, no policy)")
+    parser.add_argument("--out", default=None, help="write the metrics as JSON here")
+    parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
+    parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
+    cli.add_checkpoint_args(parser)
+    args = cli.parse(parser, argv)
+
+    if args.plot_sweep:
+        plot_sweep(args.plot_sweep)
+        return
+    if multi_agent.is_multi_agent(args.task):
+        multi_agent.eval_main(args)
+        return
+    checkpoint = args.checkpoint or cli.shipped_policy(args)
+    if checkpoint is None:
+        cli.fail(f"no --checkpoint given and agile ships no policy for {args.task}")
+    contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint)
+    env_cfg, agent_cfg, device = cli.load_task(args)
+    env_cfg = inference_cfg(env_cfg)
+    if args.command is not None:
+        command = getattr(env_cfg.commands, "base_velocity", None)
+        if command is None:
+            cli.fail(f"--command sets the base_velocity command; {args.task} has none")
+        vx, vy, wz = args.command
+        command.ranges.lin_vel_x, command.ranges.lin_vel_y, command.ranges.ang_vel_z = (vx, vx), (vy, vy), (wz, wz)
+        command.rel_standing_envs = 0.0
+    env_cfg.episode_length_s = args.episode_length_s
+    if not args.pushes and env_cfg.events is not None:
+        from agile.rl_env.managers import EventTerm
+
+        for name, term in vars(env_cfg.events).items():
+            if isinstance(term, EventTerm) and term.mode == "interval":
+                setattr(env_cfg.events, name, None)
+    env = cli.make_env(args.task, env_cfg, device, use_cache=not args.no_cache)
+    from agile.run.recording import UsdRecorder, VideoRecorder
+
+    recorders = []
+    if args.usd:
+        recorders.append(UsdRecorder(args.usd, env, num_frames=args.num_episodes * env.max_episode_length))
+    if args.video:
+        recorders.append(VideoRecorder(args.video, env))
+    policy = load_policy(contents, env, agent_cfg)
+    if args.sweep_lin_vel_x is not None:
+        run_sweep(args, env, policy, checkpoint, device)
+        return
+    metrics = evaluate(env, policy, args.num_episodes, recorders=recorders)
+    for recorder in recorders:
+        recorder.close()
+    metrics.update({"task": args.task, "checkpoint": checkpoint, "device": device, "command": args.command,
+                    "episode_length_s": args.episode_length_s, "pushes": args.pushes})
+    print(json.dumps(metrics, indent=2))
+    if args.out:
+        with open(args.out, "w") as f:
+            json.dump(metrics, f, indent=2)
+
+
+if __name__ == "__main__":
+    main()

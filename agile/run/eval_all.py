@@ -1,0 +1,250 @@
+"""Evaluate every task with a shipped policy (trainable or distilled, from the task catalogue) and write one
+JSON per task, report.md and, where matplotlib is installed, PNG plots into --out.
+
+    agile eval_all --out eval_report                  # GPU: each task's eval settings and criteria
+    agile eval_all --device cpu --num_envs 2 --episode_length_s 1 --out /tmp/eval   # tiny CPU run
+
+The report names the GPU and the commit it was made at (outside a git checkout: $AGILE_SOURCE_COMMIT).
+Exit code 1 when a policy misses its criteria (fall rate, velocity errors, base-height error for tasks with a
+height command; see agile/tasks/catalogue.py). On CPU, or with fewer envs or shorter episodes than a task's
+eval settings, the run only proves that every policy loads and steps: criteria are reported, not checked.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import os
+import sys
+
+from agile.run import common as cli
+from agile.run.common import load_policy
+from agile.run.policy import inference_cfg
+
+from agile.run.eval import evaluate
+
+
+def disable_interval_events(env_cfg) -> None:
+    """Pushes and random wrenches off, as eval.py does without --pushes: the criteria are for undisturbed walking."""
+    from agile.rl_env.managers import EventTerm
+
+    if env_cfg.events is None:
+        return
+    for name, term in vars(env_cfg.events).items():
+        if isinstance(term, EventTerm) and term.mode == "interval":
+            setattr(env_cfg.events, name, None)
+
+
+def device_name(device: str) -> str:
+    """The device in words, for the report: the GPU's model name, or "cpu"."""
+    import torch
+
+    return torch.cuda.get_device_name(torch.device(device)) if device.startswith("cuda") else "cpu"
+
+
+def source_commit() -> str:
+    """The commit of this checkout the report was made at ("+ uncommitted changes" where the tree differs from
+    it); outside a git checkout (an installed package, a copied tree) the environment variable
+    AGILE_SOURCE_COMMIT where set, else "unknown"."""
+    import subprocess
+
+    def git(*args) -> str:
+        return subprocess.run(["git", "-C", str(cli.REPO_ROOT), *args], capture_output=True, text=True,
+                              check=True).stdout.strip()
+
+    try:
+        commit = git("rev-parse", "--short=12", "HEAD")
+        dirty = git("status", "--porcelain", "--untracked-files=no")
+    except (OSError, subprocess.CalledProcessError):
+        return os.environ.get("AGILE_SOURCE_COMMIT", "unknown")
+    return commit + (" + uncommitted changes" if dirty else "")
+
+
+def evaluate_task(entry, args) -> dict:
+    """Build the task's env in its shipped policy's training conditions, run the policy, return the metrics."""
+    settings = dict(entry.eval_settings)
+    for key in ("num_envs", "num_episodes", "episode_length_s"):
+        if getattr(args, key) is not None:
+            settings[key] = getattr(args, key)
+    overrides = list(settings.pop("overrides", []))  # the task's evaluation setting, e.g. a motion from its start
+    task_args = argparse.Namespace(task=entry.task, num_envs=settings["num_envs"], device=args.device, seed=args.seed,
+                                   overrides=overrides, rnn=None)
+    checkpoint = cli.shipped_policy(task_args)  # prepends the shipped policy's training conditions
+    contents = cli.read_checkpoint(checkpoint, trust=False)
+    env_cfg, agent_cfg, device = cli.load_task(task_args)
+    env_cfg = inference_cfg(env_cfg)
+    env_cfg.episode_length_s = settings["episode_length_s"]
+    disable_interval_events(env_cfg)
+    env = cli.make_env(entry.task, env_cfg, device)
+    try:
+        policy = load_policy(contents, env, agent_cfg)
+        metrics = evaluate(env, policy, settings["num_episodes"])
+    finally:
+        env.close()
+    full_setting = (device != "cpu" and all(settings[k] >= entry.eval_settings[k] for k in settings))
+    settings["overrides"] = overrides
+    return {"task": entry.task, "kind": entry.kind, "checkpoint": checkpoint, "device": device,
+            "device_name": device_name(device), "commit": source_commit(), **settings,
+            "criteria": entry.criteria, "criteria_checked": full_setting, **metrics}
+
+
+def verdict(result: dict) -> tuple[str, list[str]]:
+    """('pass' | 'FAIL' | 'not checked', the criteria missed)."""
+    from agile.tasks.catalogue import missed_criteria
+
+    missed = missed_criteria(result, result["criteria"])
+    if not result["criteria_checked"]:
+        return "not checked", missed
+    return ("FAIL" if missed else "pass"), missed
+
+
+def report_markdown(results: list[dict], plots: list[str]) -> str:
+    made_at = sorted({f"{r.get('device_name', r['device'])} at commit {r.get('commit', 'unknown')}" for r in results})
+    lines = ["# Evaluation of the shipped policies", "",
+             "Written by `agile eval_all`: every task of kind trainable or distilled with a shipped policy "
+             "(`agile list`), pushes off, commands drawn by the task's command term.", "",
+             f"Made on {'; '.join(made_at)}.", ""]
+    if not all(r["criteria_checked"] for r in results):
+        lines += ["**Criteria not checked** for the runs marked so: they ran on CPU or with fewer envs or shorter "
+                  "episodes than the task's eval settings, which proves only that the policy loads and steps.", ""]
+    lines += ["| task | kind | device | envs x episodes x length | fall rate | vel error [m/s] | yaw-rate error [rad/s] "
+              "| height error [m] | episode length [s] | verdict |", "|" + "---|" * 10]
+    for r in results:
+        # a task without a velocity (or height) command has no such error: "-"
+        errors = [f"{r[k]:.3f}" if k in r else "-" for k in ("lin_vel_error_mps", "ang_vel_error_radps",
+                                                              "base_height_error_m")]
+        state, missed = verdict(r)
+        lines.append(f"| {r['task']} | {r['kind']} | {r['device']} | {r['num_envs']} x {r['num_episodes']} x "
+                     f"{r['episode_length_s']:g} s | {r['fall_rate']:.3f} | {' | '.join(errors)} | "
+                     f"{r['mean_episode_length_s']:.2f} | {state}"
+                     + (f": {'; '.join(missed)}" if missed and state == "FAIL" else "") + " |")
+    lines += ["", "Criteria (maxima) per task:", ""]
+    lines += [f"- {r['task']}: " + ", ".join(f"{k} <= {v:g}" for k, v in r["criteria"].items()) for r in results]
+    lines += ["", "Reward per step of each term:", ""]
+    for r in results:
+        terms = ", ".join(f"{k} {v:+.4f}" for k, v in r["reward_per_step"].items())
+        lines.append(f"- {r['task']}: {terms}")
+    with_metrics = [r for r in results if r.get("episode_metrics")]
+    if with_metrics:
+        lines += ["", "Episode metrics (means over the ended episodes):", ""]
+        lines += [f"- {r['task']}: " + ", ".join(f"{k} {v:.4g}" for k, v in r["episode_metrics"].items())
+                  for r in with_metrics]
+    if plots:
+        lines += [""] + [f"![{os.path.splitext(p)[0]}]({p})" for p in plots]
+    else:
+        lines += ["", "No plots: matplotlib is missing (`pip install 'agile[plot]'`)."]
+    return "\n".join(lines) + "\n"
+
+
+def plot_results(results: list[dict], out_dir: str) -> list[str]:
+    """One PNG of the summary metrics (a bar per task) and one of each task's per-term rewards; file names."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = []
+    metrics = ["fall_rate", "lin_vel_error_mps", "ang_vel_error_radps", "base_height_error_m", "mean_episode_length_s"]
+    fig, axes = plt.subplots(1, len(metrics), figsize=(3.6 * len(metrics), 3.6))
+    for ax, metric in zip(axes, metrics):
+        tasks = [r["task"] for r in results if metric in r]
+        ax.bar(range(len(tasks)), [r[metric] for r in results if metric in r])
+        for i, r in enumerate(r for r in results if metric in r):
+            if metric in r["criteria"]:
+                ax.hlines(r["criteria"][metric], i - 0.4, i + 0.4, colors="r", label="maximum" if i == 0 else None)
+        ax.set_xticks(range(len(tasks)), tasks, rotation=30, ha="right", fontsize=7)
+        ax.set_title(metric)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out_dir, "summary.png"), dpi=110)
+    plt.close(fig)
+    names.append("summary.png")
+    for r in results:
+        terms = r["reward_per_step"]
+        fig, ax = plt.subplots(figsize=(6, 0.25 * len(terms) + 1))
+        ax.barh(list(terms), list(terms.values()))
+        ax.set_title(f"{r['task']}: reward per step by term")
+        fig.tight_layout()
+        name = f"{r['task']}_rewards.png"
+        fig.savefig(os.path.join(out_dir, name), dpi=110)
+        plt.close(fig)
+        names.append(name)
+        if r["error_by_command"]:  # none without a velocity command
+            names.append(plot_error_by_command(r, out_dir, plt))
+    return names
+
+
+def bin_label(bounds: list) -> str:
+    low, high = bounds
+    return f">= {low:g}" if high is None else f"{low:g}-{high:g}"
+
+
+ERROR_BY_COMMAND_AXES = {
+    "lin_vel_error_mps_by_speed_mps": ("lin_vel_error_mps", "commanded planar speed [m/s]", "velocity error [m/s]"),
+    "base_height_error_m_by_height_m": ("base_height_error_m", "commanded base height [m]", "height error [m]"),
+}
+"""eval.py's error-by-command keys: (the metric it splits, x label, y label)."""
+
+
+def plot_error_by_command(result: dict, out_dir: str, plt) -> str:
+    """One PNG of a task's tracking errors against what was commanded (bars: mean error per bin of the commanded
+    speed, and of the commanded height for a height command); its file name."""
+    panels = {key: rows for key, rows in result["error_by_command"].items() if rows}
+    fig, axes = plt.subplots(1, len(panels), figsize=(5 * len(panels), 3.4), squeeze=False)
+    for ax, (key, rows) in zip(axes[0], panels.items()):
+        metric, x_label, y_label = ERROR_BY_COMMAND_AXES[key]
+        ax.bar(range(len(rows)), [row["error"] for row in rows])
+        ax.set_xticks(range(len(rows)), [bin_label(row["command"]) for row in rows], fontsize=8)
+        ax.set_xlabel(x_label)
+        ax.set_ylabel(y_label)
+        if metric in result["criteria"]:
+            ax.axhline(result["criteria"][metric], color="r", label="maximum (of the mean over all commands)")
+            ax.legend(fontsize=7)
+    fig.suptitle(f"{result['task']}: tracking error by command")
+    fig.tight_layout()
+    name = f"{result['task']}_error_by_command.png"
+    fig.savefig(os.path.join(out_dir, name), dpi=110)
+    plt.close(fig)
+    return name
+
+
+def main(argv=None) -> int:
+    parser = cli.new_parser(__doc__)
+    parser.add_argument("--out", required=True, help="folder for <task>.json, report.md and the plots")
+    parser.add_argument("--device", default=None, help="cuda:0 or cpu (default: cuda:0 when a GPU is present)")
+    parser.add_argument("--num_envs", type=int, default=None, help="envs per task (default: each task's eval setting)")
+    parser.add_argument("--num_episodes", type=int, default=None, help="episodes per env (default: the task's)")
+    parser.add_argument("--episode_length_s", type=float, default=None, help="episode length (default: the task's)")
+    parser.add_argument("--tasks", nargs="+", default=None, help="only these tasks (default: every one with a policy)")
+    parser.add_argument("--seed", type=int, default=None, help="random seed")
+    parser.add_argument("--verbose", action="store_true", help="show Warp's kernel loads and library warnings")
+    args = cli.parse(parser, argv)
+    from agile.tasks.catalogue import evaluated_tasks
+
+    entries = evaluated_tasks()
+    if args.tasks:
+        by_name = {e.task: e for e in entries}
+        unknown = [t for t in args.tasks if t not in by_name]
+        if unknown:
+            cli.fail(f"no shipped policy to evaluate for {unknown}. Tasks with one: {sorted(by_name)}")
+        entries = [by_name[t] for t in args.tasks]
+    os.makedirs(args.out, exist_ok=True)
+    results = []
+    for entry in entries:
+        print(f"[agile] eval_all: {entry.task}", flush=True)
+        result = evaluate_task(entry, args)
+        with open(os.path.join(args.out, f"{entry.task}.json"), "w") as f:
+            json.dump(result, f, indent=2)
+        results.append(result)
+    plots = plot_results(results, args.out) if importlib.util.find_spec("matplotlib") else []
+    with open(os.path.join(args.out, "report.md"), "w") as f:
+        f.write(report_markdown(results, plots))
+    failed = [r["task"] for r in results if verdict(r)[0] == "FAIL"]
+    for r in results:
+        print(f"[agile] {r['task']}: {verdict(r)[0]}" + (f" ({'; '.join(verdict(r)[1])})" if verdict(r)[1] else ""))
+    print(f"[agile] report: {os.path.join(args.out, 'report.md')}")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

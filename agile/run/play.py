@@ -1,0 +1,225 @@
+"""Run a task with a policy: a checkpoint, the policy shipped with agile, or sinusoidal test actions.
+
+    agile play --task Velocity-G1-History-v0 --num_envs 2 --num_steps 50   # shipped policy
+    agile play --task Velocity-T1-v0 --checkpoint logs/rsl_rl/velocity_t1/<run>/model_3000.pt
+    agile play --task Velocity-T1-v0 --sinusoidal       # test actions, no policy
+    agile play --task Velocity-G1-History-v0 --viewer viser   # browser viewer on http://localhost:8080
+    agile play --task Debug-G1-v0        # joint sliders and the mirrored twin, in the browser
+    agile play --task MotionTracking-G1-v0 --checkpoint model.pt --num_envs 1 --num_steps 400 \
+        --video squat.mp4 --video_reference env.commands.motion.start_frame=0 env.episode_length_s=8.0
+
+Without --checkpoint the task's shipped policy runs if agile has one (agile/data/policy/), else
+sinusoidal test actions. A debug task opens the browser GUI and takes its actions from the sliders.
+Otherwise headless by default. Observation noise and curricula are switched off.
+
+--video renders env 0 into an mp4 (Newton's ray-tracing camera, headless). With --video_reference, for a task
+whose command holds a whole-body reference (motion tracking), each frame also shows an orange kinematic copy of
+the robot at the reference pose, about 1 m to its right: the robot and what it tracks, side by side.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+from agile.run import common as cli
+
+from agile.run import multi_agent
+from agile.run.common import load_policy
+from agile.run.policy import inference_cfg
+
+from agile.gui.viewer import LOCAL_HOST
+
+
+def sinusoidal_actions(step: int, step_dt: float, num_envs: int, action_dim: int, device):
+    """0.5·sin(2π(0.5 + 0.2·(i mod 5))·t + iπ/dim) on action i: exercises every joint without a policy."""
+    import torch
+
+    i = torch.arange(action_dim, device=device, dtype=torch.float32)
+    freq_hz = 0.5 + 0.2 * torch.remainder(i, 5)
+    t = step * step_dt
+    return (0.5 * torch.sin(2 * math.pi * freq_hz * t + i * math.pi / action_dim)).expand(num_envs, -1)
+
+
+DEFAULT_HEADLESS_STEPS = 1000
+
+
+def with_visual_meshes(env_cfg):
+    """The viewer draws the robots' visual meshes, which headless runs do not load."""
+    import dataclasses
+
+    from agile.sim.scene_cfg import ArticulationCfg
+
+    env_cfg.scene.entities = {name: dataclasses.replace(cfg, parse_visuals=True) if isinstance(cfg, ArticulationCfg)
+                              else cfg for name, cfg in env_cfg.scene.entities.items()}
+    return env_cfg
+
+
+def show_fallen_states(env_cfg, task: str) -> None:
+    """--validate_fallen_states: every reset from the fallen-state dataset (no standing share), one per second."""
+    from agile.rl_env.fallen_states import reset_from_fallen_dataset
+    from agile.rl_env.managers import EventTerm
+
+    resets = [term for term in vars(env_cfg.events).values()
+              if isinstance(term, EventTerm) and term.func is reset_from_fallen_dataset]
+    if not resets:
+        cli.fail(f"--validate_fallen_states: {task} has no reset event reset_from_fallen_dataset")
+    for term in resets:
+        term.params["standing_ratio"] = 0.0
+    env_cfg.episode_length_s = 1.0
+
+
+def main(argv=None) -> None:
+    parser = cli.new_parser(__doc__)
+    cli.add_common_args(parser)
+    parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (model_<it>.pt) to run")
+    parser.add_argument("--sinusoidal", action="store_true", help="sinusoidal test actions instead of a policy")
+    parser.add_argument("--num_steps", type=int, default=None,
+                        help=f"env steps to run (default: {DEFAULT_HEADLESS_STEPS} headless; with the viewer until "
+                             "Ctrl-C)")
+    parser.add_argument("--viewer", choices=["none", "viser"], default=None,
+                        help="viser: browser viewer with reward plot, commands, pause and step (default: viser for "
+                             "debug tasks, none otherwise)")
+    parser.add_argument("--port", type=int, default=8080, help="viser port")
+    parser.add_argument("--no_follow", action="store_true", help="the viewer's camera stays put (it follows env 0 "
+                        "by default; a checkbox in the page switches it)")
+    parser.add_argument("--host", default=LOCAL_HOST,
+                        help=f"address the viewer listens on (default {LOCAL_HOST}: this machine only; from another "
+                             "machine use SSH port forwarding, see the README). 0.0.0.0 exposes it to the network")
+    parser.add_argument("--real_time", action="store_true", help="slow down to the control rate")
+    parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
+    parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
+    parser.add_argument("--video_size", type=int, nargs=2, default=(640, 480), metavar=("WIDTH", "HEIGHT"),
+                        help="--video's frame size in pixels (single-agent tasks)")
+    parser.add_argument("--video_reference", action="store_true",
+                        help="with --video: draw the command's reference pose (motion tracking) as an orange copy "
+                             "of the robot beside it")
+    parser.add_argument("--validate_fallen_states", action="store_true",
+                        help="stand-up tasks: show the fallen-state dataset: every env starts fallen, a new state "
+                             "every second, zero actions (the joints hold where they lie)")
+    cli.add_checkpoint_args(parser)
+    args = cli.parse(parser, argv)
+    if args.video_reference and not args.video:
+        cli.fail("--video_reference draws into the --video mp4: give --video PATH.mp4 too")
+    if multi_agent.is_multi_agent(args.task):
+        if args.video_reference:
+            cli.fail("--video_reference: a multi-agent task's commands have no reference pose")
+        multi_agent.play_main(args, args.num_steps or DEFAULT_HEADLESS_STEPS)
+        return
+    import agile.tasks
+
+    try:
+        debug_task = agile.tasks.task_kind(args.task) == "debug"
+    except KeyError as err:
+        cli.fail(err.args[0])
+    viewer_on = (args.viewer or ("viser" if debug_task else "none")) == "viser"
+    slider_actions = debug_task and viewer_on and args.checkpoint is None and not args.sinusoidal
+    num_steps = args.num_steps if args.num_steps is not None else (None if viewer_on else DEFAULT_HEADLESS_STEPS)
+
+    checkpoint = args.checkpoint
+    if args.validate_fallen_states and (checkpoint or args.sinusoidal):
+        cli.fail("--validate_fallen_states shows the dataset with zero actions: without --checkpoint or --sinusoidal")
+    if checkpoint is None and not args.sinusoidal and not slider_actions and not args.validate_fallen_states:
+        checkpoint = cli.shipped_policy(args)
+    contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint) if checkpoint and not args.sinusoidal \
+        else None
+    env_cfg, agent_cfg, device = cli.load_task(args)
+    import torch
+    env_cfg = inference_cfg(env_cfg)
+    if args.validate_fallen_states:
+        show_fallen_states(env_cfg, args.task)
+    env = cli.make_env(args.task, with_visual_meshes(env_cfg) if viewer_on else env_cfg, device,
+                       use_cache=not args.no_cache)
+    policy = load_policy(contents, env, agent_cfg) if contents is not None else None
+
+    viewer = sliders = None
+    if viewer_on:
+        from agile.gui import ActionSliders, BrowserViewer
+
+        viewer = BrowserViewer(env, args.port, args.host, follow=not args.no_follow)
+        if slider_actions:
+            sliders = ActionSliders(viewer.server, env)
+        print(f"[agile] viewer on {viewer.url} (Ctrl-C to stop)")
+    source = ("policy " + checkpoint if policy else "the GUI's sliders" if sliders else
+              "zero actions" if args.validate_fallen_states else "sinusoidal test actions")
+    print(f"[agile] {args.task}: {env.num_envs} envs on {device}, {source}")
+
+    recorder = None
+    if args.usd:
+        from agile.run.recording import UsdRecorder
+
+        recorder = UsdRecorder(args.usd, env, num_frames=num_steps or DEFAULT_HEADLESS_STEPS)
+    video = None
+    if args.video:
+        from agile.run.recording import VideoRecorder
+
+        if args.video_reference:
+            from agile.run.reference_view import reference_command
+
+            try:
+                reference_command(env)
+            except ValueError as err:
+                cli.fail(f"--video_reference: {err}")
+        video = VideoRecorder(args.video, env, *args.video_size, reference=args.video_reference)
+    obs, _ = env.reset()
+    episodes = falls = step = 0
+    reward_sum = torch.zeros((), device=env.device)
+    wall_start = time.perf_counter()
+    try:
+        with torch.inference_mode():
+            while num_steps is None or step < num_steps:
+                start = time.perf_counter()
+                if viewer is not None:
+                    if not viewer.is_running():
+                        break
+                    if viewer.reset_requested or (sliders is not None and sliders.reset_requested):
+                        obs, _ = env.reset()
+                        viewer.reset_requested = False
+                        if sliders is not None:
+                            sliders.after_reset()
+                    if not viewer.should_step():  # paused: keep answering the page, at 10 Hz
+                        viewer.render(env, step * env.step_dt)
+                        time.sleep(0.1)
+                        continue
+                if policy is not None:
+                    actions = policy(obs)
+                elif sliders is not None:
+                    actions = sliders.actions()
+                elif args.validate_fallen_states:
+                    actions = torch.zeros(env.num_envs, env.action_manager.total_action_dim, device=env.device)
+                else:
+                    actions = sinusoidal_actions(step, env.step_dt, env.num_envs, env.action_manager.total_action_dim,
+                                                 env.device)
+                obs, reward, terminated, truncated, _ = env.step(actions)
+                step += 1
+                reward_sum += reward.mean()
+                episodes += int((terminated | truncated).sum())
+                falls += int(terminated.sum())
+                if recorder is not None:
+                    recorder.record(env, step * env.step_dt)
+                if video is not None:
+                    video.record(env)
+                if viewer is not None:
+                    viewer.render(env, step * env.step_dt)
+                    if sliders is not None:
+                        sliders.update()
+                if args.real_time or viewer is not None:  # a viewer shows the motion at its real speed
+                    time.sleep(max(0.0, env.step_dt - (time.perf_counter() - start)))
+    except KeyboardInterrupt:
+        print("[agile] stopped")
+    elapsed = time.perf_counter() - wall_start
+    print(f"[agile] {step} steps in {elapsed:.1f} s ({step * env.num_envs / elapsed:.0f} env-steps/s); "
+          f"mean reward per step {float(reward_sum) / max(step, 1):.4f}; episodes ended {episodes}, by failure {falls}")
+    if viewer is not None:
+        viewer.close()
+    if recorder is not None:
+        recorder.close()
+        print(f"[agile] USD stage written to {recorder.path}")
+    if video is not None:
+        video.close()
+        print(f"[agile] video ({video.frames} frames) written to {video.path}")
+    env.close()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,385 @@
+"""Run an exported policy in plain MuJoCo (the C simulator, CPU), from its IO descriptor and the robot MJCF.
+
+    agile export --task Velocity-G1-History-v0 --out exported/g1
+    agile sim2mujoco --io exported/g1/io_descriptor.yaml --policy exported/g1/policy.pt \
+        --command 0.5 0 0 --episodes 3 --duration_s 10
+
+Nothing of the training framework is used: observations and actions are rebuilt from the descriptor,
+the joint torques come from the descriptor's gains and DC-motor limits (computed at the physics rate and
+applied as joint forces), and the robot collides with a ground plane. A recurrent policy carries its hidden
+state from step to step and starts each episode from zeros. The actuator delays of training are not
+modelled. Reports fall rate and velocity tracking errors like `agile eval` (and the base-height error for a
+height command); writes JSON with --out.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from collections import deque
+from pathlib import Path
+
+import numpy as np
+from agile.run import common as cli
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # for agile.assets (robot files) from a checkout
+
+IO_DESCRIPTOR_VERSION = 2  # what agile/rl_env/rsl_rl/exporter.py writes (this script does not import it)
+FALL_TILT_RAD = math.radians(60.0)
+FALL_HEIGHT_FRACTION = 0.5  # of the default root height
+
+
+def build_model(descriptor: dict, mjcf: str):
+    import mujoco
+
+    spec = mujoco.MjSpec.from_file(mjcf)
+    # like the training import: robot colliders on, no self-collision, friction cones (condim 3)
+    for geom in spec.geoms:
+        if geom.group == 2:  # Menagerie visual geoms
+            continue
+        if descriptor.get("enable_all_colliders") or geom.contype != 0:
+            geom.contype, geom.conaffinity, geom.condim = 1, 0, 3
+    spec.worldbody.add_geom(name="agile_floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
+                            contype=0, conaffinity=1, condim=3)
+    spec.option.timestep = descriptor["physics_dt_s"]
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    solver = descriptor.get("solver", {})
+    if "iterations" in solver:
+        spec.option.iterations = solver["iterations"]
+        spec.option.ls_iterations = solver["ls_iterations"]
+    model = spec.compile()
+    model.actuator_gainprm[:] = 0.0  # torques come from the descriptor's actuator model (qfrc_applied)
+    model.actuator_biasprm[:] = 0.0
+    return model
+
+
+class Robot:
+    """Index maps and actuator model of the descriptor's joints in a MuJoCo model."""
+
+    def __init__(self, descriptor: dict, model):
+        self.d = descriptor
+        names = descriptor["joint_names"]
+        self.qpos_adr = np.array([model.joint(n).qposadr[0] for n in names])
+        self.dof_adr = np.array([model.joint(n).dofadr[0] for n in names])
+        self.index = {n: i for i, n in enumerate(names)}
+        self.default_q = np.array(descriptor["default_joint_pos"])
+        self.kp = np.array(descriptor["stiffness"])
+        self.kd = np.array(descriptor["damping"])
+        self.effort_limit = np.array(descriptor["effort_limit"])
+        self.velocity_limit = np.array(descriptor["velocity_limit"])
+        self.saturation = np.full(len(names), np.inf)
+        for group in descriptor["actuators"].values():
+            if "saturation_effort" in group:
+                self.saturation[[self.index[n] for n in group["joint_names"]]] = group["saturation_effort"]
+        self.root_com_b = model.body_ipos[int(model.jnt_bodyid[0])].copy()  # of the free joint's body
+        model.dof_armature[self.dof_adr] = descriptor["armature"]
+        model.dof_frictionloss[self.dof_adr] = descriptor["friction"]
+        self.target = self.default_q.copy()
+
+    def root_lin_vel_b(self, data) -> np.ndarray:
+        """The root body's centre-of-mass velocity in its frame: training's (Isaac Lab's) root_lin_vel_b.
+        MuJoCo's free-joint velocity is the frame origin's (world frame) with the angular part in the body
+        frame, so v_com_b = R^T v_origin + w_b x r_com_b."""
+        return rotate_inverse(data.qpos[3:7], data.qvel[0:3]) + np.cross(data.qvel[3:6], self.root_com_b)
+
+    def torque(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """PD on the targets, clipped by the DC-motor torque-speed line and the effort limit."""
+        tau = self.kp * (self.target - q) - self.kd * qd
+        finite = np.isfinite(self.saturation)
+        corner = np.where(finite, self.velocity_limit * (1 + self.effort_limit / np.where(finite, self.saturation, 1)),
+                          np.inf)
+        speed = np.clip(qd, -corner, corner)
+        sat = np.where(finite, self.saturation, 0.0)
+        tau_max = np.where(finite, np.minimum(sat * (1 - speed / self.velocity_limit), self.effort_limit),
+                           self.effort_limit)
+        tau_min = np.where(finite, np.maximum(sat * (-1 - speed / self.velocity_limit), -self.effort_limit),
+                           -self.effort_limit)
+        return np.clip(tau, tau_min, tau_max)
+
+
+def rotate_inverse(quat_wxyz: np.ndarray, v: np.ndarray) -> np.ndarray:
+    w, x, y, z = quat_wxyz
+    rot = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                    [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                    [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return rot.T @ v
+
+
+class Observer:
+    """The actor's input from the descriptor's observation terms: scale, clip, per-term history."""
+
+    def __init__(self, descriptor: dict, robot: Robot):
+        self.terms = [t for g in descriptor["observation_groups"] for t in descriptor["observations"][g]]
+        self.robot = robot
+        self.history = [deque(maxlen=max(t["history_length"], 1)) for t in self.terms]
+
+    def reset(self) -> None:
+        for h in self.history:
+            h.clear()
+
+    def _value(self, term: dict, data, command: np.ndarray, last_action: np.ndarray) -> np.ndarray:
+        r = self.robot
+        quat = data.qpos[3:7]
+        ids = [r.index[n] for n in term.get("joint_names", r.d["joint_names"])]
+        q = data.qpos[r.qpos_adr][ids]
+        qd = data.qvel[r.dof_adr][ids]
+        func = term["func"]
+        if func == "base_lin_vel":
+            return r.root_lin_vel_b(data)
+        if func == "base_ang_vel":
+            return data.qvel[3:6].copy()  # MuJoCo's free-joint angular velocity is in the body frame
+        if func == "projected_gravity":
+            return rotate_inverse(quat, np.array([0.0, 0.0, -1.0]))
+        if func == "generated_commands":
+            return command
+        if func == "joint_pos_rel":
+            return q - r.default_q[ids]
+        if func == "joint_pos":
+            return q
+        if func == "joint_vel_rel":
+            return qd
+        if func == "last_action":
+            return last_action
+        raise ValueError(f"observation term '{term['name']}': function '{func}' is not supported by sim2mujoco")
+
+    def __call__(self, data, command: np.ndarray, last_action: np.ndarray) -> np.ndarray:
+        parts = []
+        for term, history in zip(self.terms, self.history):
+            value = np.asarray(self._value(term, data, command, last_action), dtype=np.float64)
+            if term["clip"] is not None:
+                value = np.clip(value, *term["clip"])
+            if term["scale"] is not None:
+                value = value * term["scale"]
+            if not history:
+                history.extend([value] * history.maxlen)  # a fresh history repeats the first value
+            else:
+                history.append(value)
+            parts.extend(history)
+        return np.concatenate(parts).astype(np.float32)
+
+
+class OnnxPolicy:
+    """An ONNX policy stepped once per control step. A recurrent one gets its hidden state back every step
+    (names and shapes from the descriptor's "policy" section), zeros at reset(). `session` is anything with
+    ONNX Runtime's run(output_names, feeds): onnx's ReferenceEvaluator (no extra dependency) or onnxruntime's."""
+
+    def __init__(self, session, interface: dict):
+        self.session = session
+        self.interface = interface
+        self.hidden = interface.get("hidden_state", [])
+        self.reset()
+
+    def reset(self) -> None:
+        self.state = {h["input"]: np.zeros(h["shape"], dtype=np.float32) for h in self.hidden}
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        names = [self.interface["output"]] + [h["output"] for h in self.hidden]
+        action, *state = self.session.run(names, {self.interface["input"]: obs[None], **self.state})
+        self.state = {h["input"]: value for h, value in zip(self.hidden, state)}
+        return action[0]
+
+
+class TorchScriptPolicy:
+    """A TorchScript policy stepped once per control step; a recurrent one keeps its hidden state inside."""
+
+    def __init__(self, path: str):
+        import torch
+
+        self.torch = torch
+        self.module = torch.jit.load(path, map_location="cpu")
+
+    def reset(self) -> None:
+        self.module.reset()  # zeros a recurrent policy's hidden state (a no-op for an MLP)
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        with self.torch.no_grad():
+            return self.module(self.torch.from_numpy(obs)[None]).numpy()[0]
+
+
+def load_policy(path: str, interface: dict):
+    """policy.onnx or policy.pt as a callable obs -> action with reset() for the start of an episode."""
+    if path.endswith(".onnx"):
+        from onnx.reference import ReferenceEvaluator
+
+        return OnnxPolicy(ReferenceEvaluator(path), interface)
+    return TorchScriptPolicy(path)
+
+
+class CommandSampler:
+    """Draws an episode's command as the training command term did, from the descriptor's "commands" entry:
+    (vx, vy, wz) uniform in the ranges, or for a velocity-and-height command (a `base_height_m` range) either
+    standing still at a uniform height (a `rel_standing_envs` share) or walking at `default_height_m`."""
+
+    def __init__(self, spec: dict, rng: np.random.Generator):
+        self.ranges = spec["ranges"]
+        self.params = spec.get("params", {})
+        self.rng = rng
+        self.has_height = "base_height_m" in self.ranges
+        self.dim = 4 if self.has_height else 3
+        self.lowest_height_m = self.ranges["base_height_m"][0] if self.has_height else math.inf
+
+    def __call__(self) -> list[float]:
+        velocity = [self.rng.uniform(*self.ranges[k]) for k in ("lin_vel_x", "lin_vel_y", "ang_vel_z")]
+        if not self.has_height:
+            return velocity
+        if self.rng.uniform() < self.params.get("rel_standing_envs", 0.0):
+            return [0.0, 0.0, 0.0, self.rng.uniform(*self.ranges["base_height_m"])]
+        return [*velocity, self.params.get("default_height_m", self.ranges["base_height_m"][1])]
+
+
+def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s: float, command=None,
+        seed: int = 0, on_frame=None) -> dict:
+    import mujoco
+
+    rng = np.random.default_rng(seed)
+    model = build_model(descriptor, mjcf)
+    data = mujoco.MjData(model)
+    robot = Robot(descriptor, model)
+    observer = Observer(descriptor, robot)
+    policy = load_policy(policy_path, descriptor["policy"])
+    action_terms = descriptor["actions"]
+    action_dim = sum(len(a["joint_names"]) for a in action_terms)
+    clip_actions = descriptor.get("clip_actions")  # older descriptors: none
+    draw_command = CommandSampler(next(iter(descriptor["commands"].values())), rng)
+    decimation = descriptor["decimation"]
+    steps = int(round(duration_s / descriptor["control_dt_s"]))
+    falls, lin_errors, ang_errors, height_errors, lengths = 0, [], [], [], []
+    # a fall: tilted over, or the root below half its lowest commanded height (a crouch is not a fall)
+    fall_height_m = FALL_HEIGHT_FRACTION * min(descriptor["default_root_height_m"], draw_command.lowest_height_m)
+    for _ in range(episodes):
+        mujoco.mj_resetData(model, data)
+        data.qpos[2] = descriptor["default_root_height_m"]
+        data.qpos[robot.qpos_adr] = robot.default_q
+        robot.target = robot.default_q.copy()
+        mujoco.mj_forward(model, data)
+        observer.reset()
+        policy.reset()
+        cmd = np.array(command if command is not None else draw_command())
+        if len(cmd) != draw_command.dim:
+            raise ValueError(f"--command has {len(cmd)} values; the policy's command has {draw_command.dim}")
+        last_action = np.zeros(action_dim)
+        for step in range(steps):
+            # clamped as the env clamps it (ActionManager.process_action): the last-action observation the policy
+            # was trained with
+            action = np.asarray(policy(observer(data, cmd, last_action)), dtype=np.float64)
+            if clip_actions is not None:
+                action = np.clip(action, -clip_actions, clip_actions)
+            last_action = action
+            start = 0
+            for term in action_terms:
+                ids = [robot.index[n] for n in term["joint_names"]]
+                raw = action[start:start + len(ids)]
+                start += len(ids)
+                target = raw * np.array(term["scale"]) + np.array(term["offset"])
+                if "clip" in term:
+                    target = np.clip(target, term["clip"][0], term["clip"][1])
+                robot.target[ids] = target
+            for _ in range(decimation):
+                data.qfrc_applied[robot.dof_adr] = robot.torque(data.qpos[robot.qpos_adr], data.qvel[robot.dof_adr])
+                mujoco.mj_step(model, data)
+            if on_frame is not None:
+                on_frame(model, data)
+            v_b = robot.root_lin_vel_b(data)
+            lin_errors.append(float(np.linalg.norm(cmd[:2] - v_b[:2])))
+            ang_errors.append(float(abs(cmd[2] - data.qvel[5])))
+            if draw_command.dim == 4:  # the base height above the ground plane
+                height_errors.append(float(abs(cmd[3] - data.qpos[2])))
+            gravity_z = rotate_inverse(data.qpos[3:7], np.array([0.0, 0.0, -1.0]))[2]
+            tilt = math.acos(max(-1.0, min(1.0, -gravity_z)))
+            if tilt > FALL_TILT_RAD or data.qpos[2] < fall_height_m:
+                falls += 1
+                break
+        lengths.append((step + 1) * descriptor["control_dt_s"])
+    metrics = {"episodes": episodes, "falls": falls, "fall_rate": falls / episodes,
+               "lin_vel_error_mps": float(np.mean(lin_errors)), "ang_vel_error_radps": float(np.mean(ang_errors)),
+               "mean_episode_length_s": float(np.mean(lengths))}
+    if height_errors:
+        metrics["base_height_error_m"] = float(np.mean(height_errors))
+    return metrics
+
+
+def default_mjcf(descriptor: dict) -> str:
+    from agile.assets import asset_file
+
+    robots = {"t1.xml": "booster_t1/t1.xml", "g1_mjx.xml": "unitree_g1/g1_mjx.xml", "g1.xml": "unitree_g1/g1.xml"}
+    name = descriptor["robot_model_file"]
+    if name not in robots:
+        cli.fail(f"pass --mjcf for robot file '{name}'")
+    return asset_file(robots[name])
+
+
+class MujocoVideo:
+    """Renders the MuJoCo rollout headless: the MuJoCo pose is copied into a Newton model of the same MJCF
+    (visual geoms) and drawn by Newton's Warp ray-tracing camera, so no OpenGL context is needed."""
+
+    def __init__(self, path: str, mjcf: str, fps: int):
+        import newton
+
+        from agile.run.recording import CameraVideo
+
+        builder = newton.ModelBuilder()
+        builder.add_mjcf(mjcf, floating=True, parse_visuals=True)
+        builder.add_ground_plane()
+        self.model = builder.finalize(device="cpu")
+        self.state = self.model.state()
+        self.video = CameraVideo(path, self.model, fps)
+        self.newton = newton
+
+    def __call__(self, mj_model, data) -> None:
+        if data.qpos.shape[0] != self.model.joint_coord_count:
+            cli.fail(f"MuJoCo has {data.qpos.shape[0]} position coordinates, Newton's import of the same MJCF "
+                     f"{self.model.joint_coord_count}: cannot copy the pose for the video")
+        q = data.qpos.astype(np.float32)
+        q[3:7] = q[[4, 5, 6, 3]]  # free-joint quaternion: MuJoCo w, x, y, z -> Newton x, y, z, w
+        self.state.joint_q.assign(q)
+        self.newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state)
+        self.video.write_frame(self.state, data.qpos[:3])
+
+    def close(self) -> None:
+        self.video.close()
+
+
+def main(argv=None) -> None:
+    parser = cli.new_parser(__doc__)
+    parser.add_argument("--io", required=True, help="io_descriptor.yaml written by agile export")
+    parser.add_argument("--policy", required=True, help="policy.pt (TorchScript) or policy.onnx")
+    parser.add_argument("--mjcf", default=None, help="robot MJCF (default: the asset package's file)")
+    parser.add_argument("--episodes", type=int, default=3, help="episodes to run, each from the default pose")
+    parser.add_argument("--duration_s", type=float, default=10.0, help="length of each episode [s]")
+    parser.add_argument("--command", type=float, nargs="+", default=None, metavar="V",
+                        help="fixed command VX VY WZ [HEIGHT] (default: drawn per episode as in training)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the commands drawn per episode")
+    parser.add_argument("--out", default=None, help="write the metrics as JSON here")
+    parser.add_argument("--video", default=None, metavar="PATH.mp4",
+                        help="render the rollout headless into an mp4 (camera following the robot)")
+    args = cli.parse(parser, argv)
+
+    import yaml
+
+    descriptor = yaml.safe_load(Path(args.io).read_text())
+    if descriptor.get("version") != IO_DESCRIPTOR_VERSION:
+        cli.fail(f"{args.io} is an IO descriptor of version {descriptor.get('version')}, this script reads version "
+                 f"{IO_DESCRIPTOR_VERSION}: export the policy again with agile export")
+    not_joint_targets = [f"{a['name']} ({a['type']})" for a in descriptor["actions"] if "offset" not in a]
+    if not_joint_targets:
+        cli.fail(f"{args.io}: sim2mujoco runs policies whose actions are joint targets (action · scale + offset); "
+                 f"these action terms are not: {not_joint_targets}")
+    mjcf = args.mjcf or default_mjcf(descriptor)
+    video = MujocoVideo(args.video, mjcf, round(1.0 / descriptor["control_dt_s"])) if args.video else None
+    try:
+        metrics = run(descriptor, mjcf, args.policy, args.episodes, args.duration_s, args.command, args.seed,
+                      on_frame=video)
+    finally:
+        if video is not None:
+            video.close()
+            print(f"[sim2mujoco] video ({video.video.frames} frames) written to {args.video}")
+    metrics.update({"io_descriptor": args.io, "policy": args.policy, "mjcf": mjcf, "command": args.command,
+                    "duration_s": args.duration_s})
+    print(json.dumps(metrics, indent=2))
+    if args.out:
+        Path(args.out).write_text(json.dumps(metrics, indent=2))
+
+
+if __name__ == "__main__":
+    main()
