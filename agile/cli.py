@@ -62,12 +62,8 @@ def cmd_show(args) -> None:
         apply_overrides({"env": env_cfg}, args.overrides)
     except ConfigError as err:
         fail(str(err))
-    import warp as wp
-
     from agile.rl_env import ManagerBasedRLEnv
 
-    wp.config.quiet = True  # Warp's banner and kernel loads would go to stdout, into the YAML
-    wp.config.log_level = wp.LOG_WARNING
     print(f"[agile] building {args.task} on CPU with 1 env", file=sys.stderr, flush=True)
     env = ManagerBasedRLEnv(env_cfg, task_name=args.task, device="cpu")
     mdp = {"kind": entry.kind, "shipped_policy": entry.policy.name if entry.policy else None, **resolved_mdp(env)}

@@ -112,7 +112,7 @@ def test_merged_view_holds_both_and_refuses_a_key_both_name():
 
 @pytest.fixture(scope="module")
 def stand_up(tmp_path_factory):
-    """StandUp-T1 with 3 envs on 2 terrain rows after its pre-learn hook (a tiny fallen-state dataset)."""
+    """StandUp-T1 with 3 envs on 2 terrain rows its dataset made when built (a tiny fallen-state dataset)."""
     from agile.run import common as cli
 
     cache_dir = tmp_path_factory.mktemp("fallen_cache")

@@ -1,4 +1,4 @@
-"""HeightTracking-G1-v0 built on CPU (3 envs, 2 terrain rows): its pre-learn step (a tiny fallen-state dataset),
+"""HeightTracking-G1-v0 built on CPU (3 envs, 2 terrain rows): its fallen-state dataset made when built (a tiny one),
 steps, resets and one PPO iteration; the height command's range, shares and settle time; the command-following
 lift's force for a known height error and vertical velocity, push-down on and off, the weight-fraction limit."""
 
@@ -30,11 +30,11 @@ def env_and_agent(tmp_path_factory):
     env_cfg.events.reset_base.params["dataset"] = FallenStateDatasetCfg(
         cache_dir=str(tmp_path_factory.mktemp("fallen_cache")))
     with contextlib.redirect_stdout(io.StringIO()):
-        env = cli.make_env(TASK, env_cfg, "cpu")  # runs the registration's pre-learn hook
+        env = cli.make_env(TASK, env_cfg, "cpu")  # collects the fallen-state dataset
     return env, agent_cfg
 
 
-def test_pre_learn_step_reset_and_one_ppo_iteration(env_and_agent, tmp_path):
+def test_the_built_env_reset_and_one_ppo_iteration(env_and_agent, tmp_path):
     from rsl_rl.runners import OnPolicyRunner
 
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict

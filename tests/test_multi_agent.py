@@ -202,35 +202,38 @@ def test_mappo_through_skrl_has_a_centralised_critic(tmp_path):
         SkrlMultiAgentView(gym.make(TASK, num_envs=1, device="cpu").unwrapped)
 
 
-def test_scripts_train_eval_play_and_export_a_multi_agent_task(tmp_path):
+def test_commands_train_eval_play_and_export_a_multi_agent_task(tmp_path, capsys):
+    import importlib
     import json
-    import subprocess
-    import sys
     from pathlib import Path
 
-    root = Path(__file__).resolve().parents[1]
+    def run(command, *args):
+        """(exit code, stdout, stderr) of `agile <command> ... --task TASK --device cpu`, in this process."""
+        code = 0
+        try:
+            code = importlib.import_module(f"agile.run.{command}").main([*args, "--task", TASK, "--device", "cpu"])
+        except SystemExit as exit_info:
+            code = exit_info.code
+        out, err = capsys.readouterr()
+        return code or 0, out, err
 
-    def run(*args):
-        result = subprocess.run([sys.executable, *args, "--task", TASK, "--device", "cpu"], cwd=root,
-                                capture_output=True, text=True, timeout=600)
-        return result.returncode, result.stdout, result.stderr
-
-    shipped = root / "agile" / "data" / "policy"
-    code, out, err = run("scripts/train.py", "--num_envs", "2", "--max_iterations", "1", "--log_root", str(tmp_path),
+    shipped = Path(__file__).resolve().parents[1] / "agile" / "data" / "policy"
+    code, out, err = run("train", "--num_envs", "2", "--max_iterations", "1", "--log_root", str(tmp_path),
                          "--init_policy", f"g1={shipped / 'Velocity-G1-History-v0.pt'}",
                          "--init_policy", f"t1={shipped / 'Velocity-T1-v0.pt'}", "agent.rollout_s=0.08")
     assert code == 0, out + err
     run_dir = next((tmp_path / "multi_rate_g1_t1_velocity").iterdir())
     for group in ("g1", "t1"):
         assert (run_dir / group / "model_0.pt").is_file() and (run_dir / "exported" / group / "policy.onnx").is_file()
-    code, out, err = run("scripts/eval.py", "--checkpoint", str(run_dir), "--num_envs", "2", "--episode_length_s",
-                         "0.4", "--out", str(tmp_path / "eval.json"))
+    assert f"exported policy in {run_dir / 'exported'}/<group>" in out, out  # where the files are
+    code, out, err = run("eval", "--checkpoint", str(run_dir), "--num_envs", "2", "--episode_length_s", "0.4",
+                         "--out", str(tmp_path / "eval.json"))
     assert code == 0, out + err
     metrics = json.loads((tmp_path / "eval.json").read_text())["agents"]
     assert set(metrics) == {"g1", "t1"} and metrics["t1"]["control_hz"] == 25.0 and metrics["g1"]["episodes"] == 2
-    code, out, err = run("scripts/play.py", "--checkpoint", str(run_dir), "--num_envs", "1", "--num_steps", "4")
+    code, out, err = run("play", "--checkpoint", str(run_dir), "--num_envs", "1", "--num_steps", "4")
     assert code == 0 and "t1 at 25 Hz" in out, out + err
-    code, out, err = run("scripts/export.py", "--checkpoint", str(run_dir), "--out", str(tmp_path / "exported"))
+    code, out, err = run("export", "--checkpoint", str(run_dir), "--out", str(tmp_path / "exported"))
     assert code == 0 and (tmp_path / "exported" / "t1" / "io_descriptor.yaml").is_file(), out + err
-    code, out, err = run("scripts/train.py", "--init_policy", "robot=model.pt")
+    code, out, err = run("train", "--init_policy", f"robot={shipped / 'Velocity-T1-v0.pt'}")
     assert code == 2 and err.startswith("error: --init_policy takes GROUP=PATH with GROUP one of ['g1', 't1']"), err

@@ -138,6 +138,37 @@ def test_resume_skips_a_truncated_newest_checkpoint(tmp_path, capsys):
     assert "skipping" in capsys.readouterr().out
 
 
+@pytest.mark.parametrize("command", [["eval", "--checkpoint"], ["play", "--checkpoint"], ["export", "--checkpoint"],
+                                     ["train", "--resume", "--checkpoint"], ["train", "--init_policy"]],
+                         ids=["eval", "play", "export", "train-resume", "train-init_policy"])
+def test_a_checkpoint_cut_short_is_refused_in_one_line_with_exit_2(command, tmp_path, capsys):
+    import importlib
+
+    from agile.tasks import pretrained_policy
+
+    cut = tmp_path / "model_cut.pt"
+    cut.write_bytes(pretrained_policy("Velocity-T1-v0").read_bytes()[:1000])  # a copy broken off
+    main = importlib.import_module(f"agile.run.{command[0]}").main
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--task", "Velocity-T1-v0", "--device", "cpu", "--num_envs", "1", *command[1:], str(cut),
+              *(["--out", str(tmp_path / "out")] if command[0] == "export" else [])])
+    err = capsys.readouterr().err
+    assert exit_info.value.code == 2
+    assert err.count("\n") == 1 and "cannot be read" in err and str(cut) in err and "Traceback" not in err, err
+
+
+def test_a_missing_checkpoint_is_refused_before_anything_is_built(capsys):
+    from agile.run import common as cli
+    from agile.run.train import main
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--task", "Velocity-T1-v0", "--checkpoint", "no/such/model_1.pt"])
+    assert exit_info.value.code == 2 and "--checkpoint not found: no/such/model_1.pt" in capsys.readouterr().err
+    from agile.rl_env.rsl_rl.checkpoints import TRUST_FLAG
+
+    assert cli.TRUST_FLAG == TRUST_FLAG
+
+
 def test_a_corrupted_terrain_cache_is_rebuilt_and_a_bad_terrain_is_never_written(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("AGILE_CACHE_DIR", str(tmp_path))
     cfg = TerrainGeneratorCfg(size_m=2.0, num_rows=2, num_cols=2, border_width_m=0.5)

@@ -77,6 +77,7 @@ def test_a_quiet_run_prints_no_library_noise(trained_run):
     code, out = run(*args[:-1], "--resume", "agent.num_steps_per_env=4")
     assert code == 0, out
     assert not [n for n in NOISE if n in out], out
+    assert "Learning iteration" in out and "\x1b[" not in out, out  # rsl-rl's block, without bold codes in a log
     assert "[agile] building Velocity-T1-v0" in out  # a word of progress before the long first build
     code, out = run("scripts/play.py", "--task", "Velocity-T1-v0", "--num_envs", "1", "--num_steps", "2",
                     "--device", "cpu", "--verbose")
@@ -388,3 +389,44 @@ def test_train_progress_bar_shows_the_eta_and_a_full_block_every_n_iterations(tm
     assert any("training:  33%" in line and "<" in line for line in bar), err  # elapsed<remaining: the ETA
     blocks = [line for line in out.splitlines() if "Learning iteration" in line]
     assert len(blocks) == 1 and "Learning iteration 1/3" in blocks[0], out  # the 2nd of 3 iterations only
+
+
+@pytest.mark.skipif(__import__("warp").is_cuda_available(), reason="the CPU fallback is what this checks")
+@pytest.mark.parametrize("num_envs, said", [(None, "running on CPU with 4 envs (a small count"),
+                                            (64, "running on CPU with 64 envs (as --num_envs asks)")])
+def test_the_cpu_fallback_says_the_env_count_it_builds(num_envs, said, capsys):
+    import argparse
+
+    from agile.run import common as cli
+
+    args = argparse.Namespace(task="Velocity-T1-v0", num_envs=num_envs, device=None, seed=None, overrides=[])
+    env_cfg, _, device = cli.load_task(args)
+    assert device == "cpu" and env_cfg.num_envs == (num_envs or cli.CPU_DEFAULT_NUM_ENVS)
+    assert f"no GPU found: {said}" in capsys.readouterr().out
+
+
+def test_the_library_is_quiet_by_default():
+    """The README's gym.make snippet in a fresh interpreter (the process's output is the point): nothing from Warp,
+    its banner, kernel loads and CUDA-driver warning included."""
+    import os
+
+    program = ("import gymnasium as gym, torch, agile.tasks\n"
+               "env = gym.make('Velocity-T1-v0', num_envs=1, device='cpu')\n"
+               "env.reset(); env.step(torch.zeros(1, 12)); print('stepped')\n")
+    result = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, timeout=600,
+                            env={k: v for k, v in os.environ.items() if k != "AGILE_VERBOSE"})
+    assert result.returncode == 0, result.stderr
+    assert (result.stdout + result.stderr).strip() == "stepped", result.stdout + result.stderr
+
+
+def test_agile_verbose_is_the_switch_for_warps_output(monkeypatch):
+    import warp as wp
+
+    from agile.utils.output import configure_warp_output
+
+    monkeypatch.setenv("AGILE_VERBOSE", "1")
+    configure_warp_output()
+    assert not wp.config.quiet and wp.config.log_level == wp.LOG_INFO
+    monkeypatch.delenv("AGILE_VERBOSE")
+    configure_warp_output()
+    assert wp.config.quiet and wp.config.log_level == wp.LOG_WARNING

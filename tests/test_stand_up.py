@@ -1,5 +1,5 @@
 """StandUp-T1 and its fallen-state dataset (issue 17): the cache key, the cache file's checks, collection (states
-at rest, inside their cells), the reset from the dataset, the relative joint action, pre_learn then one PPO
+at rest, inside their cells), the reset from the dataset, the relative joint action, the built env then one PPO
 iteration, and play.py --validate_fallen_states."""
 
 from __future__ import annotations
@@ -87,7 +87,7 @@ def _small_env_cfg(cache_dir: Path, num_rows: int = 2):
 
 @pytest.fixture(scope="module")
 def stand_up_env(tmp_path_factory):
-    """StandUp-T1 with 3 envs on 2 terrain rows, after its pre-learn hook: (env, agent cfg, cache dir, printed)."""
+    """StandUp-T1 with 3 envs on 2 terrain rows, its dataset made when built: (env, agent cfg, cache dir, printed)."""
     import contextlib
     import io
 
@@ -176,7 +176,7 @@ def test_a_second_build_loads_the_cache_and_a_cut_cache_is_rebuilt(stand_up_env)
     assert "collected in" in printed and len(list(cache_dir.iterdir())) == 2
 
 
-def test_pre_learn_then_one_ppo_iteration(stand_up_env, tmp_path):
+def test_the_built_env_then_one_ppo_iteration(stand_up_env, tmp_path):
     from rsl_rl.runners import OnPolicyRunner
 
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
@@ -263,3 +263,19 @@ def test_illegal_contacts_cost_a_lying_t1_once_not_per_body(stand_up_env):
         finally:
             reset_params["standing_ratio"] = 0.1
             env.reset()
+
+
+def test_gym_make_starts_a_stand_up_task_from_fallen_states():
+    """gym.make builds what training runs: the reset event collects (or loads) the fallen-state dataset when the
+    env is built, and the envs start from it (a tenth standing, StandUp-T1's standing_ratio)."""
+    import gymnasium as gym
+
+    from agile.utils.math import quat_rotate_inverse
+
+    env = gym.make("StandUp-T1-v0", num_envs=4, device="cpu").unwrapped
+    robot = env.scene["robot"]
+    down = torch.tensor([[0.0, 0.0, -1.0]]).expand(4, 3)
+    upright = quat_rotate_inverse(robot.root_quat_w, down)[:, 2] < -0.9  # the trunk's z axis near vertical
+    assert env.event_manager.get_term("reset_base").states is not None
+    assert int((~upright).sum()) >= 3, robot.root_pos_w  # most start lying
+    env.close()

@@ -12,6 +12,7 @@ SMOKE_TASKS = ["Velocity-T1-v0", "Velocity-G1-History-v0", "Velocity-G1-Teacher-
                "Velocity-Height-G1-History-v0", "Debug-G1-v0", "Debug-T1-v0", "Debug-G1-Object-v0"]
 SMOKE_TASKS += ["MotionTracking-G1-v0"]
 SMOKE_TASKS += ["PickPlace-G1-v0", "PickPlace-G1-Debug-v0"]
+SMOKE_TASKS += ["StandUp-T1-v0", "HeightTracking-G1-v0"]  # gym.make collects their fallen-state datasets
 MULTI_AGENT_SMOKE_TASKS = ["MultiRate-G1-T1-Velocity-v0"]
 DISTILLED = "distilled from a teacher: tests/test_distillation.py builds, steps, trains and exports it"
 FINETUNED = "PPO on a distilled student: tests/test_distillation.py trains it from the shipped student and exports it"
@@ -23,9 +24,6 @@ SKIPPED_TASKS: dict[str, str] = {  # task ID -> reason
     "Velocity-Height-G1-Student-History-Finetune-v0": FINETUNED,
     "Tracking-Flat-G1-v0": "the same configs as MotionTracking-G1-v0 (AGILE v1.3 renamed it; both IDs registered)",
     "G1-PickPlace-Tracking-v0": "the same configs as PickPlace-G1-v0 (AGILE v1.3 renamed it; both IDs registered)",
-    "StandUp-T1-v0": "needs its pre-learn step: tests/test_stand_up.py collects a tiny dataset, steps and trains it",
-    "HeightTracking-G1-v0": "needs its pre-learn step: tests/test_height_tracking.py collects a tiny dataset, steps "
-                            "and trains it",
 }
 
 

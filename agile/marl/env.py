@@ -16,6 +16,7 @@ from agile.marl.env_cfg import AgentCfg, MultiAgentEnvCfg
 from agile.marl.schedule import Schedule
 from agile.rl_env.captured_step import CapturedStep
 from agile.rl_env.env import check_timing, resolve_device, resolve_env_cfg
+from agile.utils.output import configure_warp_output
 from agile.rl_env.managers import CurriculumManager, EventManager
 from agile.sim import Simulation
 from agile.utils.config import ConfigError
@@ -56,6 +57,7 @@ class MultiAgentEnv(gym.Env):
         self.cfg = cfg
         self.task_name = task_name or type(cfg).__name__
         self.render_mode = render_mode
+        configure_warp_output()  # quiet unless AGILE_VERBOSE=1
         where = f"task '{self.task_name}'"
         check_timing(cfg, self.task_name)
         if not cfg.agents:

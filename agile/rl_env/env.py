@@ -16,6 +16,7 @@ from agile.rl_env.managers import (ActionManager, CommandManager, CurriculumMana
                                    ObservationManager, RewardManager, TerminationManager, merge_episode_metrics)
 from agile.sim import SceneCfg, SimCfg, Simulation
 from agile.utils.config import ConfigError, apply_overrides, configclass, load_entry_point
+from agile.utils.output import configure_warp_output
 
 CURRICULUM_STATE_PREFIX = "curriculum/"
 """Keys of `training_state()` that hold a curriculum term's state."""
@@ -172,6 +173,7 @@ class ManagerBasedRLEnv(gym.Env):
         self.cfg = cfg
         self.task_name = task_name or type(cfg).__name__
         self.render_mode = render_mode
+        configure_warp_output()  # quiet unless AGILE_VERBOSE=1
         device = resolve_device(device)
         check_timing(cfg, self.task_name)
         if not (isinstance(cfg.decimation, int) and cfg.decimation >= 1):
@@ -213,6 +215,9 @@ class ManagerBasedRLEnv(gym.Env):
         self._reset_envs(self._all_envs)
         self.obs_buf = self.observation_manager.compute()
         self.extras: dict = {}
+        # terms that need the built env make what they need now (a stand-up task's fallen-state dataset, which
+        # resets the env from it): gym.make builds exactly what training runs
+        self.event_manager.prepare_terms()
 
     # -- gymnasium API ---------------------------------------------------------------------------
 

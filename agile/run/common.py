@@ -13,6 +13,8 @@ from pathlib import Path
 REPO_ROOT = Path(__file__).resolve().parents[2]
 """The source checkout agile runs from (with `pip install -e .`); an installed package's is site-packages."""
 
+TRUST_FLAG = "--trust_checkpoint"
+"""`agile.rl_env.rsl_rl.checkpoints.TRUST_FLAG`, named here so that --help does not import the simulator."""
 CPU_DEFAULT_NUM_ENVS = 4
 EXIT_USAGE = 2
 """Exit code of a script refusing its arguments (argparse's own)."""
@@ -54,51 +56,40 @@ def parse(parser: argparse.ArgumentParser, argv=None):
         for value in values if isinstance(values, list) else [values]:  # benchmark.py takes several env counts
             if value is not None and value < 1:
                 fail(f"--{name} must be at least 1, got {value}")
+    check_paths(args)
     VERBOSE = bool(getattr(args, "verbose", False))
     configure_output(VERBOSE)
     return args
 
 
+def check_paths(args) -> None:
+    """Refuse a checkpoint, teacher or initial policy that does not exist before anything heavy is imported (a
+    multi-agent --init_policy is GROUP=PATH; a multi-agent --checkpoint may be a run folder)."""
+    for name in ("checkpoint", "teacher"):
+        path = getattr(args, name, None)
+        if isinstance(path, str) and not os.path.exists(path):
+            fail(f"--{name} not found: {path}")
+    for spec in getattr(args, "init_policy", None) or []:
+        path = spec.split("=", 1)[1] if "=" in spec and not os.path.exists(spec) else spec
+        if not os.path.exists(path):
+            fail(f"--init_policy not found: {path}")
+
+
 def configure_output(verbose: bool) -> None:
-    """Quiet by default: Warp's per-module load lines and the deprecation and future warnings of the
-    libraries underneath are for whoever debugs them (`--verbose`)."""
+    """Quiet by default: Warp's output (agile.utils.output, whose switch AGILE_VERBOSE --verbose sets) and the
+    deprecation and future warnings of the libraries underneath are for whoever debugs them."""
     import warnings
 
-    import warp as wp
+    from agile.utils import output
 
-    wp.config.log_level = wp.LOG_INFO if verbose else wp.LOG_WARNING
-    if not verbose:
+    if verbose:
+        os.environ[output.VERBOSE_ENV] = "1"
+    output.configure_warp_output()
+    if not output.verbose():
         for category in (FutureWarning, DeprecationWarning):
             warnings.filterwarnings("ignore", category=category)
         # torch's ONNX exporter warns, for every export, that torchvision's operators are not registered
         logging.getLogger("torch.onnx").setLevel(logging.ERROR)
-        init_warp_without_driver_warning()
-
-
-WARP_NO_DRIVER_MESSAGE = "Warp CUDA warning: Could not find or load the NVIDIA CUDA driver"
-
-
-def init_warp_without_driver_warning() -> None:
-    """Initialise Warp with its C library's stderr captured: on a machine without a GPU it prints that the CUDA
-    driver is missing, which the scripts say in their own words ("no GPU found"). Any other line is passed on."""
-    import tempfile
-
-    import warp as wp
-
-    sys.stderr.flush()
-    saved_fd = os.dup(2)
-    with tempfile.TemporaryFile(mode="w+b") as captured:
-        os.dup2(captured.fileno(), 2)
-        try:
-            wp.init()
-        finally:
-            os.dup2(saved_fd, 2)
-            os.close(saved_fd)
-        captured.seek(0)
-        text = captured.read().decode(errors="replace")
-    lines = [line for line in text.splitlines() if line.strip() and not line.startswith(WARP_NO_DRIVER_MESSAGE)]
-    if lines:
-        print("\n".join(lines), file=sys.stderr)
 
 
 def quiet_stdout():
@@ -127,14 +118,12 @@ def add_common_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--verbose", action="store_true",
                         help="show Warp's kernel loads, rsl-rl's model printout and library warnings")
     parser.add_argument("--no_cache", action="store_true",
-                        help="tasks with a pre-learn step (stand-up: the fallen-state dataset): collect again instead "
+                        help="stand-up tasks: collect the fallen-state dataset again instead "
                              "of loading the disk cache (the new collection replaces it)")
     parser.add_argument("overrides", nargs="*", help=OVERRIDE_HELP)
 
 
 def add_checkpoint_args(parser: argparse.ArgumentParser) -> None:
-    from agile.rl_env.rsl_rl.checkpoints import TRUST_FLAG
-
     parser.add_argument(TRUST_FLAG, action="store_true",
                         help="load checkpoints with full unpickling, which runs any code inside the file: only for "
                              "files you trust (by default only tensors and plain containers are loaded)")
@@ -142,28 +131,27 @@ def add_checkpoint_args(parser: argparse.ArgumentParser) -> None:
 
 def read_checkpoint(path: str, trust: bool) -> dict:
     """A checkpoint's contents, loaded before the env is built so that a bad file is reported at once."""
-    from agile.rl_env.rsl_rl.checkpoints import UntrustedCheckpointError, load_checkpoint
+    from agile.rl_env.rsl_rl.checkpoints import UnreadableCheckpointError, UntrustedCheckpointError, load_checkpoint
 
     if not os.path.isfile(path):
         fail(f"checkpoint not found: {path}")
     try:
         return load_checkpoint(path, "cpu", trust=trust)
-    except UntrustedCheckpointError as err:
+    except (UntrustedCheckpointError, UnreadableCheckpointError) as err:
         fail(str(err))
 
 
-def resolve_device(requested: str | None) -> str:
+def resolve_device(requested: str | None) -> tuple[str, str | None]:
+    """(the device, why it is the CPU where the user did not ask for it, else None)."""
     import warp as wp
 
     if requested is None:
         if wp.is_cuda_available():
-            return "cuda:0"
-        print("[agile] no GPU found: running on CPU with a small env count")
-        return "cpu"
+            return "cuda:0", None
+        return "cpu", "no GPU found"
     if requested.startswith("cuda") and not wp.is_cuda_available():
-        print(f"[agile] {requested} requested but no GPU found: falling back to CPU with a small env count")
-        return "cpu"
-    return requested
+        return "cpu", f"{requested} requested but no GPU found"
+    return requested, None
 
 
 def shipped_policy(args) -> str | None:
@@ -203,11 +191,14 @@ def load_task(args) -> tuple:
         env_cfg, agent_cfg = agile.tasks.load_cfgs(args.task)
     except KeyError as err:
         fail(err.args[0])
-    device = resolve_device(args.device)
+    device, fallback = resolve_device(args.device)
     if args.num_envs is not None:
         env_cfg.num_envs = args.num_envs
     elif device == "cpu":
         env_cfg.num_envs = min(env_cfg.num_envs, CPU_DEFAULT_NUM_ENVS)
+    if fallback is not None:  # the count it runs with: the one given, or the small default
+        given = "as --num_envs asks" if args.num_envs is not None else "a small count; --num_envs to choose"
+        print(f"[agile] {fallback}: running on CPU with {env_cfg.num_envs} envs ({given})")
     if args.seed is not None:
         env_cfg.seed = args.seed
         agent_cfg.seed = args.seed
@@ -222,9 +213,8 @@ def load_task(args) -> tuple:
 
 
 def make_env(task: str, env_cfg, device: str, use_cache: bool = True):
-    """The task's env (a ManagerBasedRLEnv, or a MultiAgentEnv for a multi-agent config), after the task's pre-learn
-    step where its registration names one (`pre_learn_entry_point`, e.g. the stand-up tasks' fallen-state dataset;
-    `use_cache=False`: collect again); a config error ends the script in one line."""
+    """The task's env (`agile.run.env.build_env`; `use_cache=False`: a fallen-state dataset is collected anew); a
+    config error ends the command in one line."""
     from agile.run.env import build_env
     from agile.utils.config import ConfigError
 

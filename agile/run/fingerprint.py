@@ -207,9 +207,6 @@ def main(argv=None) -> int:
     mode.add_argument("--record", action="store_true", help="write the fingerprints anew")
     parser.add_argument("files", nargs="*", help="policy files (names in agile/data/policy/); default: all")
     args = parser.parse_args(argv)
-    import warp as wp
-
-    wp.config.log_level = wp.LOG_WARNING  # no line per kernel module loaded
     policies = shipped_policies()
     if args.files:
         by_name = {p.file.name: p for p in policies}

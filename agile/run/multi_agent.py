@@ -101,8 +101,10 @@ def train(args, env_cfg, agent_cfg, device: str) -> None:
     for group_runner in runner.runners.values():
         group_runner.logger.git_status_repos = cli.git_repos()
     runner.learn(agent_cfg.max_iterations)
-    export_groups(runner, os.path.join(log_dir, "exported"))
-    print(f"[agile] logs, checkpoints and exports of each group in {log_dir}/<group>")
+    export_dir = os.path.join(log_dir, "exported")
+    export_groups(runner, export_dir)
+    print(f"[agile] logs and checkpoints of each group in {log_dir}/<group>, its exported policy in "
+          f"{export_dir}/<group>")
 
 
 def export_groups(runner, out_dir: str) -> None:

@@ -6,7 +6,7 @@ import math
 
 import torch
 
-from agile.rl_env.fallen_states.dataset import FallenStateDatasetCfg, FallenStates
+from agile.rl_env.fallen_states.dataset import FallenStateDatasetCfg, FallenStates, load_or_collect
 from agile.rl_env.managers import ManagerTermBase, SceneEntityCfg
 from agile.utils.math import quat_from_euler_xyz, quat_mul
 
@@ -18,15 +18,22 @@ class reset_from_fallen_dataset(ManagerTermBase):  # noqa: N801 (AGILE's name)
     rest), else in a fallen state drawn from the dataset at the env's terrain row: the env moves to the cell (row,
     column) the state was collected in, and takes its root pose, velocities and joint state.
 
-    The dataset (`dataset`: a FallenStateDatasetCfg) is collected or loaded before learning by the task's pre-learn
-    hook (`agile.rl_env.fallen_states.pre_learn`), which hands it over with `set_dataset`; until then every env
-    starts standing. Masked tensor math only: safe inside the captured step (the dataset must be set before the
-    first step, as the scripts do).
+    The dataset (`dataset`: a FallenStateDatasetCfg, the default one when None) is loaded from its disk cache or
+    collected when the env is built (`prepare`), before its first step; `set_dataset` hands over another. Masked
+    tensor math only: safe inside the captured step.
     """
 
     def __init__(self, cfg, env):
         super().__init__(cfg, env)
         self.states: FallenStates | None = None
+
+    def prepare(self, env) -> None:
+        """Load the dataset from the cache or collect it, then reset the env: its first episodes start from it."""
+        params = self.cfg.params
+        dataset_cfg = params.get("dataset") or FallenStateDatasetCfg()
+        robot_name = params["asset_cfg"].name if "asset_cfg" in params else "robot"
+        self.set_dataset(load_or_collect(env, dataset_cfg, env.task_name, robot_name))
+        env.reset()
 
     def set_dataset(self, states: FallenStates) -> None:
         if len(states) == 0:

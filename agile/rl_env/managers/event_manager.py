@@ -5,7 +5,7 @@ from __future__ import annotations
 import torch
 
 from agile.rl_env.managers.manager_base import collect_terms, prepare_term, reset_term
-from agile.rl_env.managers.term_cfg import EventTerm
+from agile.rl_env.managers.term_cfg import EventTerm, ManagerTermBase
 from agile.utils.config import ConfigError, check_range
 
 MODES = ("startup", "reset", "interval")
@@ -60,6 +60,12 @@ class EventManager:
                 self.funcs[name](self.env, mask, **cfg.params)
             except ValueError as err:
                 raise ConfigError(f"task '{self.env.task_name}', event term '{name}': {err}") from None
+
+    def prepare_terms(self) -> None:
+        """`ManagerTermBase.prepare` of every class term, in the config's order."""
+        for func in self.funcs.values():
+            if isinstance(func, ManagerTermBase):
+                func.prepare(self.env)
 
     def reset(self, env_mask: torch.Tensor) -> dict:
         for func in self.funcs.values():

@@ -139,5 +139,10 @@ class ManagerTermBase:
         self.cfg = cfg
         self.env = env
 
+    def prepare(self, env) -> None:
+        """Called once when the env is built, after its startup events and first reset: a term that needs data
+        made with the whole env (a reset event's fallen-state dataset) makes it here, so that `gym.make` builds
+        exactly what training runs. Nothing by default."""
+
     def reset(self, env_mask) -> None:
         """Clear per-env state where env_mask (N,) is True."""

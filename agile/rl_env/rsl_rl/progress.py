@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import re
 import statistics
 
 from rsl_rl.utils.logger import Logger
@@ -17,6 +18,29 @@ from tqdm import tqdm
 
 PROGRESS_MODES = ("auto", "bar", "log")
 """bar: the progress line; log: rsl-rl's block every iteration (log files); auto: bar on a terminal, else log."""
+ANSI_ESCAPE = re.compile(r"\x1b\[[0-9;]*m")
+"""Terminal escape codes (rsl-rl prints its block's title in bold), noise in a log file."""
+
+
+def rebuilt_logger(cls, logger: Logger, runner) -> Logger:
+    """The runner's logger (log dir, config, buffers) as a `cls`, built with the arguments the runner gave its own,
+    before training starts (rsl-rl creates the tensorboard writer in `learn`)."""
+    new = cls(log_dir=logger.log_dir, cfg=logger.cfg, env_cfg=logger.env_cfg, num_envs=logger.num_envs,
+              is_distributed=runner.is_distributed, gpu_world_size=runner.gpu_world_size,
+              gpu_global_rank=runner.gpu_global_rank, device=logger.device)
+    new.git_status_repos = logger.git_status_repos
+    return new
+
+
+class PlainLogger(Logger):
+    """rsl-rl's logger printing its block without terminal escape codes: for output redirected to a file."""
+
+    def log(self, **kwargs) -> None:
+        block = io.StringIO()
+        with contextlib.redirect_stdout(block):
+            super().log(**kwargs)
+        if block.getvalue():
+            print(ANSI_ESCAPE.sub("", block.getvalue()), end="", flush=True)
 
 
 class ProgressLogger(Logger):
@@ -30,13 +54,9 @@ class ProgressLogger(Logger):
     @classmethod
     def from_logger(cls, logger: Logger, runner, full_log_every: int,
                     total_iterations: int | None = None) -> ProgressLogger:
-        """The same logger (log dir, config, buffers) showing a bar: built with the arguments the runner gave its
-        own, before training starts (rsl-rl creates the tensorboard writer in `learn`). Without
-        `total_iterations`, the bar is as long as the first `learn` call."""
-        progress = cls(log_dir=logger.log_dir, cfg=logger.cfg, env_cfg=logger.env_cfg, num_envs=logger.num_envs,
-                       is_distributed=runner.is_distributed, gpu_world_size=runner.gpu_world_size,
-                       gpu_global_rank=runner.gpu_global_rank, device=logger.device)
-        progress.git_status_repos = logger.git_status_repos
+        """The same logger (`rebuilt_logger`) showing a bar. Without `total_iterations`, the bar is as long as the
+        first `learn` call."""
+        progress = rebuilt_logger(cls, logger, runner)
         progress.full_log_every = full_log_every
         progress.total_iterations = total_iterations
         return progress
@@ -65,8 +85,10 @@ class ProgressLogger(Logger):
 
 def show_progress(runner, mode: str, full_log_every: int, is_terminal: bool, total_iterations: int) -> None:
     """Give the runner a progress bar over `total_iterations` where `mode` asks for one ('auto': when output goes
-    to a terminal)."""
+    to a terminal), else rsl-rl's block every iteration, without escape codes where output goes to a file."""
     if mode not in PROGRESS_MODES:
         raise ValueError(f"progress mode '{mode}': choose one of {PROGRESS_MODES}")
     if mode == "bar" or (mode == "auto" and is_terminal):
         runner.logger = ProgressLogger.from_logger(runner.logger, runner, full_log_every, total_iterations)
+    elif not is_terminal:
+        runner.logger = rebuilt_logger(PlainLogger, runner.logger, runner)

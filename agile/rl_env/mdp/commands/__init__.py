@@ -1,15 +1,13 @@
 from agile.rl_env.mdp.commands.height_command import SmoothHeightCommand, SmoothHeightCommandCfg, SmoothHeightRangesCfg
+from agile.rl_env.mdp.commands.motion_command import MotionCommand, MotionCommandCfg
+from agile.rl_env.mdp.commands.tracking_command import TrackingCommand, TrackingCommandCfg
 from agile.rl_env.mdp.commands.velocity_command import (UniformNullVelocityCommand, UniformNullVelocityCommandCfg,
                                                         VelocityRangesCfg)
 from agile.rl_env.mdp.commands.velocity_height_command import (UniformVelocityBaseHeightCommand,
                                                                UniformVelocityBaseHeightCommandCfg,
                                                                VelocityHeightRangesCfg)
-from agile.rl_env.mdp.commands.motion_command import MotionCommand, MotionCommandCfg
 
-__all__ = ["SmoothHeightCommand", "SmoothHeightCommandCfg", "SmoothHeightRangesCfg",
-           "UniformNullVelocityCommand", "UniformNullVelocityCommandCfg", "UniformVelocityBaseHeightCommand",
-           "UniformVelocityBaseHeightCommandCfg", "VelocityHeightRangesCfg", "VelocityRangesCfg"]
-__all__ += ["MotionCommand", "MotionCommandCfg"]
-from agile.rl_env.mdp.commands.tracking_command import TrackingCommand, TrackingCommandCfg
-
-__all__ += ["TrackingCommand", "TrackingCommandCfg"]
+__all__ = ["MotionCommand", "MotionCommandCfg", "SmoothHeightCommand", "SmoothHeightCommandCfg", "SmoothHeightRangesCfg",
+           "TrackingCommand", "TrackingCommandCfg", "UniformNullVelocityCommand", "UniformNullVelocityCommandCfg",
+           "UniformVelocityBaseHeightCommand", "UniformVelocityBaseHeightCommandCfg", "VelocityHeightRangesCfg",
+           "VelocityRangesCfg"]

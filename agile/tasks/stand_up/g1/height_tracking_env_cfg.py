@@ -2,8 +2,8 @@
 
 AGILE V1.3 `G1HeightTrackingEnvCfg` (agile_tasks.md 2.5). A height command (a point 0.2 m above the torso origin,
 from -0.5 m, "lie relaxed", to 0.92 m, "stand") jumps to a new value every 1-7 s; the robot tracks it with all 29
-joints. Episodes start from the fallen-state dataset (half standing), collected before learning by the
-registration's pre-learn hook; a lift on the torso that follows the command helps early on and fades as the
+joints. Episodes start from the fallen-state dataset (half standing), collected when the env is built by the
+reset event; a lift on the torso that follows the command helps early on and fades as the
 command is tracked (`adaptive_force_decay`); terrain rows get rougher only once the lift is gone, and once the
 robot masters row 4 the smoothness and impact penalties grow ("polish").
 """
