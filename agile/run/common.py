@@ -88,7 +88,10 @@ def configure_output(verbose: bool) -> None:
     if not output.verbose():
         for category in (FutureWarning, DeprecationWarning):
             warnings.filterwarnings("ignore", category=category)
-        # torch's ONNX exporter warns, for every export, that torchvision's operators are not registered
+        # torch's ONNX exporter warns, for every export, that torchvision's operators are not registered; torch's
+        # own logging set-up, at its import, resets its loggers' levels: import it first
+        import torch  # noqa: F401
+
         logging.getLogger("torch.onnx").setLevel(logging.ERROR)
 
 

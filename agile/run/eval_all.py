@@ -4,7 +4,7 @@ JSON per task, report.md and, where matplotlib is installed, PNG plots into --ou
     agile eval_all --out eval_report                  # GPU: each task's eval settings and criteria
     agile eval_all --device cpu --num_envs 2 --episode_length_s 1 --out /tmp/eval   # tiny CPU run
 
-The report names the GPU and the commit it was made at (outside a git checkout: $AGILE_SOURCE_COMMIT).
+The report names the GPU and the commit it was made at ($AGILE_SOURCE_COMMIT where set, else the checkout's).
 Exit code 1 when a policy misses its criteria (fall rate, velocity errors, base-height error for tasks with a
 height command; see agile/tasks/catalogue.py). On CPU, or with fewer envs or shorter episodes than a task's
 eval settings, the run only proves that every policy loads and steps: criteria are reported, not checked.
@@ -44,10 +44,13 @@ def device_name(device: str) -> str:
 
 
 def source_commit() -> str:
-    """The commit of this checkout the report was made at ("+ uncommitted changes" where the tree differs from
-    it); outside a git checkout (an installed package, a copied tree) the environment variable
-    AGILE_SOURCE_COMMIT where set, else "unknown"."""
+    """The commit the report was made at: AGILE_SOURCE_COMMIT where set (a tree copied to another machine, whose
+    .git may be stale), else this checkout's ("+ uncommitted changes" where the tree differs from it), else
+    "unknown" (an installed package)."""
     import subprocess
+
+    if os.environ.get("AGILE_SOURCE_COMMIT"):
+        return os.environ["AGILE_SOURCE_COMMIT"]
 
     def git(*args) -> str:
         return subprocess.run(["git", "-C", str(cli.REPO_ROOT), *args], capture_output=True, text=True,
@@ -57,7 +60,7 @@ def source_commit() -> str:
         commit = git("rev-parse", "--short=12", "HEAD")
         dirty = git("status", "--porcelain", "--untracked-files=no")
     except (OSError, subprocess.CalledProcessError):
-        return os.environ.get("AGILE_SOURCE_COMMIT", "unknown")
+        return "unknown"
     return commit + (" + uncommitted changes" if dirty else "")
 
 

@@ -5,13 +5,14 @@ from __future__ import annotations
 import torch
 
 from agile.rl_env.managers.manager_base import build_class_terms
+from agile.rl_env.managers.term_cfg import ActionTermCfg
 from agile.utils.config import ConfigError
 
 
 def is_training_only(term_cfg) -> bool:
     """Whether an action term's config marks it as a training aid (a lift, a harness): one rule for the built
     env (`ActionManager.training_only_terms`) and for configs made ready for inference before an env exists."""
-    return bool(getattr(term_cfg, "training_only", False))
+    return isinstance(term_cfg, ActionTermCfg) and term_cfg.training_only
 
 
 class ActionTerm:

@@ -86,6 +86,19 @@ class RewTerm:
 
 
 @configclass
+class ActionTermCfg:
+    """What every action term's config has (each term's config derives from it and sets `class_type`)."""
+
+    class_type: type | None = None
+    """The ActionTerm class built from this config."""
+    asset_name: str = "robot"
+    """The scene entity the term drives."""
+    training_only: bool = False
+    """A training aid (a lift, a harness): inference, exports, students and the fallen-state collection run without
+    it (`is_training_only`)."""
+
+
+@configclass
 class DoneTerm:
     func: Callable | None = None
     params: dict[str, Any] = field(default_factory=dict)

@@ -12,7 +12,7 @@ from dataclasses import field
 
 import torch
 
-from agile.rl_env.managers import ActionTerm
+from agile.rl_env.managers import ActionTerm, ActionTermCfg
 from agile.sim.names import resolve_values
 from agile.utils.config import configclass
 from agile.utils.math import rounded_list
@@ -87,9 +87,8 @@ class DeltaJointPositionAction(ActionTerm):
 
 
 @configclass
-class DeltaJointPositionActionCfg:
+class DeltaJointPositionActionCfg(ActionTermCfg):
     class_type: type = DeltaJointPositionAction
-    asset_name: str = "robot"
     joint_names: list[str] = field(default_factory=list)
     """The driven joints (regexes, in this order)."""
     scale: float = 0.05

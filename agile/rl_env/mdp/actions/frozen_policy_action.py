@@ -18,7 +18,7 @@ from pathlib import Path
 
 import torch
 
-from agile.rl_env.managers import ActionTerm, TermHistory
+from agile.rl_env.managers import ActionTerm, ActionTermCfg, TermHistory
 from agile.utils.config import configclass
 from agile.utils.math import rounded_list
 
@@ -214,12 +214,11 @@ class FrozenPolicyAction(ActionTerm):
 
 
 @configclass
-class FrozenPolicyActionCfg:
+class FrozenPolicyActionCfg(ActionTermCfg):
     """AGILE `AgileLowerBodyActionCfg`. Leave both files None for the policy agile ships
     (`DEFAULT_FROZEN_POLICY`); else a TorchScript policy.pt and its io_descriptor.yaml from scripts/export.py."""
 
     class_type: type = FrozenPolicyAction
-    asset_name: str = "robot"
     policy_file: str | None = None
     io_descriptor_file: str | None = None
     command_ranges: dict[str, tuple[float, float]] = field(default_factory=lambda: {

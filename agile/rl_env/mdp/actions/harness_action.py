@@ -8,6 +8,7 @@ import torch
 import warp as wp
 
 from agile.rl_env.mdp.actions.body_wrench import BodyAidAction, write_body_wrench
+from agile.rl_env.managers import ActionTermCfg
 from agile.utils.config import configclass
 
 
@@ -91,12 +92,11 @@ class HarnessAction(BodyAidAction):
 
 
 @configclass
-class HarnessActionCfg:
+class HarnessActionCfg(ActionTermCfg):
     """AGILE G1: k_torque 300, d_torque 50, k_force 1000, d_force 100, 150 N, 500 N·m, at 0.72 m or the
     commanded height."""
 
     class_type: type = HarnessAction
-    asset_name: str = "robot"
     body_name: str = "pelvis"
     stiffness_force_n_per_m: float = 1000.0
     damping_force_n_s_per_m: float = 100.0

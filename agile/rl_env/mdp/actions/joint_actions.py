@@ -6,7 +6,7 @@ from dataclasses import field
 
 import torch
 
-from agile.rl_env.managers import ActionTerm
+from agile.rl_env.managers import ActionTerm, ActionTermCfg
 from agile.sim.names import resolve_values
 from agile.utils.config import configclass
 from agile.utils.math import rounded_list
@@ -75,11 +75,10 @@ class RelativeJointPositionAction(JointPositionAction):
 
 
 @configclass
-class JointPositionActionCfg:
+class JointPositionActionCfg(ActionTermCfg):
     """Isaac Lab semantics: `clip` bounds the processed target [rad], after scale and offset."""
 
     class_type: type = JointPositionAction
-    asset_name: str = "robot"
     joint_names: list[str] = field(default_factory=lambda: [".*"])
     scale: float | dict[str, float] = 1.0
     use_default_offset: bool = True

@@ -9,6 +9,7 @@ import torch
 import warp as wp
 
 from agile.rl_env.mdp.actions.body_wrench import BodyAidAction, BodyWrenchSlot, write_body_wrench
+from agile.rl_env.managers import ActionTermCfg
 from agile.utils.config import configclass
 
 __all__ = ["LiftAction", "LiftActionCfg"]
@@ -163,12 +164,11 @@ class LiftAction(BodyAidAction):
 
 
 @configclass
-class LiftActionCfg:
+class LiftActionCfg(ActionTermCfg):
     """AGILE T1 stand-up: on the head ("H2"), k_force 5000, d_force 500 (unused), 300 N, d_torque 100, 250 N·m,
     to 0.65 m (T1's standing trunk height) from 3 s over 10 s."""
 
     class_type: type = LiftAction
-    asset_name: str = "robot"
     body_name: str = "H2"
     """The link pulled up (AGILE `link_to_lift`)."""
     stiffness_force_n_per_m: float = 5000.0

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import torch
 
-from agile.rl_env.managers import ActionTerm
+from agile.rl_env.managers import ActionTerm, ActionTermCfg
 from agile.rl_env.mdp.actions.joint_actions import JointPositionAction
 from agile.rl_env.mdp.symmetry import joint_mirror, mirror_within
 from agile.utils.config import configclass
@@ -61,7 +61,7 @@ class MirroredJointPositionAction(ActionTerm):
 
 
 @configclass
-class MirroredJointPositionActionCfg:
+class MirroredJointPositionActionCfg(ActionTermCfg):
     class_type: type = MirroredJointPositionAction
     asset_name: str = "mirrored_robot"
     """The articulation that receives the mirrored targets (the same model as the source's)."""

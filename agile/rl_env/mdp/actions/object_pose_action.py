@@ -6,7 +6,7 @@ from dataclasses import field
 
 import torch
 
-from agile.rl_env.managers import ActionTerm
+from agile.rl_env.managers import ActionTerm, ActionTermCfg
 from agile.utils.config import configclass
 from agile.utils.math import quat_from_euler_xyz, quat_mul
 
@@ -59,7 +59,7 @@ class ObjectPoseAction(ActionTerm):
 
 
 @configclass
-class ObjectPoseActionCfg:
+class ObjectPoseActionCfg(ActionTermCfg):
     class_type: type = ObjectPoseAction
     asset_name: str = "object"
     """A rigid object with body_type 'kinematic'."""

@@ -15,7 +15,7 @@ from dataclasses import field
 
 import torch
 
-from agile.rl_env.managers import ActionTerm
+from agile.rl_env.managers import ActionTerm, ActionTermCfg
 from agile.sim.names import resolve_names
 from agile.utils.config import configclass
 
@@ -170,12 +170,11 @@ class RandomPositionAction(ActionTerm):
 
 
 @configclass
-class RandomActionCfg:
+class RandomActionCfg(ActionTermCfg):
     """AGILE `RandomActionCfg` with a trapezoidal velocity profile. Select joints by `joint_names` or by
     `joint_names_exclude` (every joint not matched), not both."""
 
     class_type: type = RandomPositionAction
-    asset_name: str = "robot"
     joint_names: list[str] | None = None
     joint_names_exclude: list[str] | None = None
     sample_range_s: tuple[float, float] = (0.1, 2.5)

@@ -6,7 +6,7 @@ curriculum, which evaluation removes, each env stays on its row). eval.py also r
 
 # the reset event collects the fallen-state dataset (or loads it from its disk cache) when the env is built
 register_task("StandUp-T1-v0", f"{__name__}.stand_up_env_cfg:T1StandUpEnvCfg",
-              f"{__name__}.agents.rsl_rl_ppo_cfg:t1_stand_up_ppo_runner_cfg",
+              f"{__name__}.agents.rsl_rl_cfg:t1_stand_up_ppo_runner_cfg",
               # issue 17: stands up (trunk above 0.55 m at the time-out) in > 90% of 10 s episodes. Criteria are
               # maxima: the failure share; the episodes a termination ends are failures in it too, so the fall rate
               # is held to the same 10% (not the default 5%, stricter than the issue)
