@@ -17,7 +17,8 @@ import sys
 
 import yaml
 
-FORWARDED = ("train", "play", "eval", "eval_all", "export", "benchmark", "sim2mujoco", "plot_learning_curve")
+FORWARDED = ("train", "play", "eval", "eval_all", "export", "benchmark", "sim2mujoco", "plot_learning_curve",
+             "time_to_policy")
 """Subcommands that run `agile.run.<name>.main` with the arguments that follow."""
 EXIT_USAGE = 2
 

@@ -1,0 +1,223 @@
+"""Time to policy: train a task from scratch for a wall-clock budget and report when its policy first meets the
+task's criteria (agile/tasks/catalogue.py), with the curve of its evaluations against wall time.
+
+    agile time_to_policy --task Velocity-G1-History-v0 --budget_s 600 --out docs/time_to_policy/g1_h100
+    agile time_to_policy --task Velocity-T1-v0 --budget_s 300 --gpus 4 --out t1_4gpu    # torchrun, ranks on GPUs 0-3
+
+The training runs as a child process (`agile train`, or torchrun over --gpus GPUs with --distributed) and saves a
+checkpoint every --save_interval iterations; this process evaluates the newest checkpoint on the training's first
+GPU whenever a new one appears (the task's eval setting: the catalogue's env count and episode length, the
+registered start rows, pushes off), and stops the run once one meets every criterion or the budget is spent. Wall
+times count from the training's start; the time to the first iteration (the env build, kernel compilation
+included) is reported apart. Writes <out>.json and, with matplotlib, <out>.png.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from agile.run import common as cli
+
+FIRST_ITERATION_MARK = "Learning iteration"
+"""What rsl-rl's log prints for every iteration (the training runs with --progress log)."""
+CURVE_METRICS = ("fall_rate", "lin_vel_error_mps", "ang_vel_error_radps", "base_height_error_m")
+
+
+def training_command(args, log_root: str) -> list[str]:
+    """The child process: `agile train` on one device, or torchrun over --gpus GPUs."""
+    train_args = ["--task", args.task, "--max_iterations", str(args.max_iterations), "--log_root", log_root,
+                  "--progress", "log", f"agent.save_interval={args.save_interval}", *args.overrides]
+    if args.num_envs is not None:
+        train_args += ["--num_envs", str(args.num_envs)]
+    if args.seed is not None:
+        train_args += ["--seed", str(args.seed)]
+    if args.gpus > 1:
+        return [sys.executable, "-m", "torch.distributed.run", "--standalone", f"--nproc_per_node={args.gpus}",
+                "-m", "agile.run.train", *train_args, "--distributed"]
+    return [sys.executable, "-m", "agile.run.train", *train_args, "--device", args.device]
+
+
+def newest_checkpoint(log_root: str) -> tuple[int, Path] | None:
+    """(iteration, path) of the newest model_<it>.pt of the run under log_root, or None."""
+    found = [(int(p.stem.split("_")[1]), p) for p in Path(log_root).glob("*/*/model_*.pt")]
+    return max(found) if found else None
+
+
+def evaluator(args, device: str):
+    """A function (checkpoint path -> eval.py's metrics) over one env in the task's evaluation setting, built once."""
+    import agile.tasks
+    from agile.rl_env.rsl_rl.checkpoints import load_checkpoint
+    from agile.run.eval import evaluate
+    from agile.run.eval_all import disable_interval_events
+    from agile.run.policy import inference_cfg, load_policy
+    from agile.tasks.catalogue import task_entry
+    from agile.utils.config import apply_overrides
+
+    settings = task_entry(args.task).eval_settings
+    env_cfg, agent_cfg = agile.tasks.load_cfgs(args.task)
+    apply_overrides({"env": env_cfg, "agent": agent_cfg}, [*args.overrides, *settings.get("overrides", [])])
+    env_cfg.num_envs = args.eval_num_envs or settings["num_envs"]
+    env_cfg.episode_length_s = args.eval_episode_length_s or settings["episode_length_s"]
+    env_cfg = inference_cfg(env_cfg)
+    disable_interval_events(env_cfg)
+    env = cli.make_env(args.task, env_cfg, device)
+
+    def run(path: Path) -> dict:
+        policy = load_policy(load_checkpoint(str(path)), env, agent_cfg)
+        return evaluate(env, policy, settings["num_episodes"])
+
+    return run
+
+
+def criteria_of(args) -> dict:
+    """The task's criteria from the catalogue, or those given as --criterion NAME=MAX."""
+    from agile.tasks.catalogue import task_entry
+
+    if not args.criterion:
+        return dict(task_entry(args.task).criteria)
+    criteria = {}
+    for spec in args.criterion:
+        name, _, value = spec.partition("=")
+        try:
+            criteria[name] = float(value)
+        except ValueError:
+            cli.fail(f"--criterion takes NAME=MAXIMUM, e.g. fall_rate=0.05; got '{spec}'")
+    return criteria
+
+
+def wait_for_first_iteration(log_path: Path, process, start: float, budget_s: float) -> float | None:
+    """Seconds from the start to the training's first logged iteration (None: it ended or the budget ran out)."""
+    while time.monotonic() - start < budget_s and process.poll() is None:
+        if log_path.exists() and FIRST_ITERATION_MARK in log_path.read_text(errors="replace"):
+            return time.monotonic() - start
+        time.sleep(0.5)
+    return None
+
+
+def run_until_criteria(args, criteria: dict, device: str, log_root: str, log_path: Path) -> dict:
+    from agile.tasks.catalogue import missed_criteria
+
+    evaluations, evaluate = [], None
+    start, start_epoch = time.monotonic(), time.time()
+    with open(log_path, "w") as log:
+        process = subprocess.Popen(training_command(args, log_root), stdout=log, stderr=subprocess.STDOUT,
+                                   start_new_session=True)
+    first_iteration_s = wait_for_first_iteration(log_path, process, start, args.budget_s)
+    met_at = None
+    try:
+        evaluated = -1
+        while time.monotonic() - start < args.budget_s:
+            newest = newest_checkpoint(log_root)
+            if newest is None or newest[0] == evaluated:
+                if process.poll() is not None and (newest is None or newest[0] == evaluated):
+                    break  # the training ended and every checkpoint is evaluated
+                time.sleep(1.0)
+                continue
+            iteration, path = newest
+            written_s = path.stat().st_mtime - start_epoch  # when the training wrote it
+            time.sleep(0.5)  # rsl-rl writes the file in one torch.save: let it finish
+            if evaluate is None:
+                evaluate = evaluator(args, device)
+            metrics = evaluate(path)
+            missed = missed_criteria(metrics, criteria)
+            evaluated = iteration
+            row = {"iteration": iteration, "wall_s": round(written_s, 1), "met": not missed, "missed": missed,
+                   **{k: metrics[k] for k in CURVE_METRICS if k in metrics}, "episodes": metrics.get("episodes")}
+            evaluations.append(row)
+            print(f"[agile] {row['wall_s']:7.1f} s, iteration {iteration}: "
+                  + ", ".join(f"{k} {row[k]:.3f}" for k in CURVE_METRICS if k in row)
+                  + (" -> criteria met" if not missed else ""), flush=True)
+            if not missed:
+                met_at = row
+                break
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGTERM)
+            process.wait(timeout=60)
+    return {"task": args.task, "gpus": args.gpus, "num_envs_per_gpu": args.num_envs, "budget_s": args.budget_s,
+            "criteria": criteria, "first_iteration_s": None if first_iteration_s is None else round(first_iteration_s, 1),
+            "time_to_policy_s": met_at["wall_s"] if met_at else None,
+            "iteration_at_criteria": met_at["iteration"] if met_at else None, "evaluations": evaluations}
+
+
+def plot(result: dict, path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    metrics = [m for m in CURVE_METRICS if any(m in row for row in result["evaluations"])]
+    fig, axes = plt.subplots(1, len(metrics), figsize=(4.2 * len(metrics), 3.4), squeeze=False)
+    for ax, metric in zip(axes[0], metrics):
+        rows = [r for r in result["evaluations"] if metric in r]
+        ax.plot([r["wall_s"] for r in rows], [r[metric] for r in rows], marker="o")
+        if metric in result["criteria"]:
+            ax.axhline(result["criteria"][metric], color="r", label="maximum")
+            ax.legend(fontsize=7)
+        if result["first_iteration_s"] is not None:
+            ax.axvline(result["first_iteration_s"], color="grey", ls=":")
+        ax.set_xlabel("wall time since start [s]")
+        ax.set_title(metric)
+    fig.suptitle(f"{result['task']}: time to policy {result['time_to_policy_s']} s "
+                 f"({result['gpus']} GPU(s); dotted: first iteration)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    parser = cli.new_parser(__doc__)
+    parser.add_argument("--task", required=True, help="registered task ID, e.g. Velocity-G1-History-v0")
+    parser.add_argument("--budget_s", type=float, required=True, help="wall-clock budget of the whole run [s]")
+    parser.add_argument("--gpus", type=int, default=1, help="GPUs of this host to train on (torchrun when > 1)")
+    parser.add_argument("--num_envs", type=int, default=None, help="training envs per GPU (default: the task's)")
+    parser.add_argument("--device", default=None, help="one-GPU runs: cuda:0 or cpu (default: cuda:0 with a GPU)")
+    parser.add_argument("--seed", type=int, default=None, help="training seed (default: the task's)")
+    parser.add_argument("--save_interval", type=int, default=50, help="iterations between checkpoints (evaluations)")
+    parser.add_argument("--max_iterations", type=int, default=100_000,
+                        help="iterations the training is started for; the budget or the criteria end it first")
+    parser.add_argument("--eval_num_envs", type=int, default=None, help="envs per evaluation (default: the task's)")
+    parser.add_argument("--eval_episode_length_s", type=float, default=None,
+                        help="episode length of an evaluation (default: the task's)")
+    parser.add_argument("--criterion", action="append", default=None, metavar="NAME=MAX",
+                        help="a criterion instead of the task's (repeat for several), e.g. fall_rate=0.05")
+    parser.add_argument("--out", required=True, help="write <out>.json and <out>.png (the curve)")
+    parser.add_argument("--verbose", action="store_true", help="show Warp's kernel loads and library warnings")
+    parser.add_argument("overrides", nargs="*", help=cli.OVERRIDE_HELP)
+    args = cli.parse(parser, argv)
+    if args.gpus < 1 or args.save_interval < 1 or not args.budget_s > 0:
+        cli.fail("--gpus and --save_interval must be at least 1 and --budget_s positive")
+    device, _ = cli.resolve_device(args.device if args.gpus == 1 else "cuda:0")
+    args.device = device
+    criteria = criteria_of(args)
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="agile_time_to_policy_") as log_root:
+        result = run_until_criteria(args, criteria, device, log_root, Path(f"{args.out}.log"))
+    result.update(device=device, commit=cli_commit())
+    Path(f"{args.out}.json").write_text(json.dumps(result, indent=2))
+    try:
+        plot(result, f"{args.out}.png")
+    except ImportError:
+        print("[agile] no plot: matplotlib is missing (pip install 'agile[plot]')")
+    met = result["time_to_policy_s"]
+    print(f"[agile] {args.task}: " + (f"criteria met at {met} s (iteration {result['iteration_at_criteria']})"
+                                      if met is not None else f"criteria not met within {args.budget_s:g} s")
+          + f"; first iteration at {result['first_iteration_s']} s; {args.out}.json")
+    return 0 if met is not None else 1
+
+
+def cli_commit() -> str:
+    from agile.run.eval_all import source_commit
+
+    return source_commit()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
