@@ -15,6 +15,7 @@ from agile.assets.unitree_g1 import g1_robot_cfg
 from agile.motion import load_motion
 from agile.motion.convert import G1_CSV_JOINT_NAMES, RootAndJoints, convert_csv, write_motion_csv
 from agile.rl_env import mdp
+from agile.rl_env.managers import SceneEntityCfg
 from agile.utils.math import quat_from_euler_xyz, quat_mul, quat_rotate
 
 INPUT_FPS, OUTPUT_FPS = 30.0, 50.0
@@ -250,7 +251,7 @@ def test_joint_default_randomisation_moves_defaults_and_action_offsets_together(
     action = SimpleNamespace(offset=torch.zeros(2, 3), joint_ids=torch.tensor([0, 1, 2]))
     env.action_manager = SimpleNamespace(get_term=lambda name: action)
     mdp.randomize_joint_default_pos(env, torch.tensor([True, False]), pos_distribution_params=(-0.01, 0.01),
-                                    asset_cfg=mdp.ROBOT)
+                                    asset_cfg=SceneEntityCfg("robot"))
     defaults = env.robot.default_joint_pos
     assert (defaults[0].abs() <= 0.01).all() and (defaults[0] != 0).all() and (defaults[1] == 0).all()
     torch.testing.assert_close(action.offset, defaults)

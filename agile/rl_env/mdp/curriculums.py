@@ -9,6 +9,9 @@ import torch
 from agile.rl_env.managers import ManagerTermBase
 
 
+__all__ = ["EpisodeOutcomeCounter", "pushing_curriculum", "remove_harness", "terrain_levels_vel",
+           "update_reward_weight_step"]
+
 class EpisodeOutcomeCounter:
     """AGILE's terrain-row rule, shared by the terrain curricula: per env, the successful and failed episodes since
     the last move; a move up after `n_successes` successes, down after `n_failures` failures, each move clearing

@@ -15,6 +15,13 @@ import torch
 from agile.rl_env.managers import SceneEntityCfg
 from agile.utils.math import quat_conjugate, quat_mul, quat_rotate, quat_rotate_inverse
 
+__all__ = ["bad_anchor_ori", "bad_anchor_pos_z_only", "bad_motion_body_pos_z_only", "motion_anchor_ori_b",
+           "motion_anchor_pos_b", "motion_global_anchor_orientation_error_exp",
+           "motion_global_anchor_position_error_exp", "motion_global_body_angular_velocity_error_exp",
+           "motion_global_body_linear_velocity_error_exp", "motion_relative_body_orientation_error_exp",
+           "motion_relative_body_position_error_exp", "quat_error_magnitude", "randomize_joint_default_pos",
+           "robot_body_ori_b", "robot_body_pos_b"]
+
 ROBOT = SceneEntityCfg("robot")
 
 

@@ -6,6 +6,10 @@ import torch
 
 from agile.rl_env.managers import SceneEntityCfg
 
+__all__ = ["base_ang_vel", "base_height_above_ground", "base_height_from_sensor", "base_lin_vel",
+           "contact_force_norm", "generated_commands", "height_scan", "height_scan_feet", "joint_pos",
+           "joint_pos_rel", "joint_vel_rel", "last_action", "projected_gravity"]
+
 ROBOT = SceneEntityCfg("robot")
 
 

@@ -16,6 +16,12 @@ from agile.rl_env.managers import SceneEntityCfg
 from agile.rl_env.mdp.motion_tracking import quat_error_magnitude
 from agile.utils.math import quat_rotate, quat_rotate_inverse
 
+__all__ = ["action_l2", "bad_base_pose", "bad_base_rotation", "bad_joint_pos", "body_ang_vel_l2",
+           "hand_object_distance_tracking_exp", "motion_joint_pos_delta", "motion_object_position_error_exp",
+           "motion_tracked_joint_pos_error_exp", "nominal_posture_at_end_exp", "object_pos_error",
+           "object_to_hand_pos_b", "out_of_bound", "palm_object_distance_exp", "palm_pose_w", "static_at_goal_exp",
+           "trajectory_progress"]
+
 ROBOT = SceneEntityCfg("robot")
 OBJECT = SceneEntityCfg("object")
 

@@ -8,6 +8,15 @@ from agile.rl_env.managers import SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
 from agile.utils.math import quat_conjugate, quat_mul, quat_rotate_inverse, wrap_to_pi, yaw_from_quat
 
+__all__ = ["action_rate_l2", "action_rate_rate_l2", "ang_vel_xy_l2", "applied_torque_limits", "base_height_exp",
+           "body_acc_l2", "body_projected_gravity", "equal_foot_force", "feet_air_time",
+           "feet_air_time_positive_biped", "feet_distance_from_ref", "feet_roll_l2", "feet_slip", "feet_stumble",
+           "feet_yaw_diff_l2", "feet_yaw_mean_vs_base", "filtered_contact", "flat_body_orientation_exp",
+           "flat_orientation_l2", "illegal_contact", "impact_velocity_l1", "is_alive", "is_terminated",
+           "joint_acc_l2", "joint_deviation_l1", "joint_pos_limits", "joint_torques_l2", "joint_vel_l2",
+           "joint_vel_limits", "jumping", "lin_vel_z_l2", "object_body_distance_exp", "object_is_lifted",
+           "track_ang_vel_z_exp", "track_lin_vel_xy_exp", "undesired_contacts"]
+
 ROBOT = SceneEntityCfg("robot")
 
 

@@ -12,6 +12,12 @@ from agile.rl_env.managers import SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
 from agile.rl_env.mdp.rewards import equal_foot_force
 
+__all__ = ["base_height_in_threshold", "equal_foot_force_if_null_cmd", "flat_orientation_if_null_cmd",
+           "joint_deviation_l2", "no_undesired_base_velocity_exp", "no_undesired_base_velocity_exp_if_null_cmd",
+           "null_command", "relax_if_null_cmd", "relax_if_null_cmd_exp", "stand_with_both_feet_if_null_cmd",
+           "track_ang_vel_z_world_exp", "track_base_height_exp_smooth", "track_lin_vel_xy_yaw_frame_exp",
+           "track_lin_vel_xy_yaw_frame_exp_weighted"]
+
 ROBOT = SceneEntityCfg("robot")
 MIN_WEIGHTED_SPEED_MPS = 0.01
 """AGILE: the tracking weight rises from 1 at this commanded speed to 2 at the fastest command."""

@@ -25,6 +25,9 @@ from agile.rl_env.managers import ObsTerm, SceneEntityCfg, index_list
 from agile.rl_env.managers.manager_base import collect_terms
 from agile.rl_env.mdp import observations as obs_terms
 
+__all__ = ["GroupMirror", "body_mirror", "feet_scan_mirror", "group_mirror", "joint_mirror", "lr_mirror",
+           "mirror_within"]
+
 POLAR_VECTOR = [1.0, -1.0, 1.0]
 PSEUDO_VECTOR = [-1.0, 1.0, -1.0]
 VELOCITY_COMMAND = [1.0, -1.0, -1.0]  # vx, vy, wz

@@ -10,6 +10,9 @@ from agile.rl_env.managers import ManagerTermBase, SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
 from agile.rl_env.mdp.rewards import body_projected_gravity
 
+__all__ = ["bad_orientation", "illegal_ground_contact", "link_distance", "no_height_progress",
+           "root_height_below_minimum", "time_out"]
+
 ROBOT = SceneEntityCfg("robot")
 
 
