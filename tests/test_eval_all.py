@@ -4,9 +4,9 @@ each policy, writes a JSON per task and the report, and says that the criteria w
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
+
+from commands import run_command
 
 from agile.tasks.catalogue import evaluated_tasks
 
@@ -15,9 +15,9 @@ REPO = Path(__file__).resolve().parents[1]
 
 def test_eval_all_tiny_cpu_setting(tmp_path):
     out = tmp_path / "eval"
-    result = subprocess.run([sys.executable, str(REPO / "scripts" / "eval_all.py"), "--device", "cpu", "--num_envs", "2",
-                             "--episode_length_s", "1", "--out", str(out)], capture_output=True, text=True, timeout=600)
-    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    code, stdout, stderr = run_command("eval_all", "--device", "cpu", "--num_envs", "2", "--episode_length_s", "1",
+                                       "--out", out)
+    assert code == 0, stdout[-2000:] + stderr[-2000:]
     tasks = [e.task for e in evaluated_tasks()]
     assert tasks, "no task has a shipped policy"
     report = (out / "report.md").read_text()
@@ -39,11 +39,9 @@ def test_eval_all_tiny_cpu_setting(tmp_path):
 
 
 def test_eval_all_refuses_a_task_without_policy(tmp_path):
-    result = subprocess.run([sys.executable, str(REPO / "scripts" / "eval_all.py"), "--device", "cpu",
-                             "--tasks", "Debug-T1-v0", "--out", str(tmp_path)], capture_output=True, text=True,
-                            timeout=300)
-    assert result.returncode == 2
-    assert "Debug-T1-v0" in result.stderr and "Velocity-T1-v0" in result.stderr
+    code, _, stderr = run_command("eval_all", "--device", "cpu", "--tasks", "Debug-T1-v0", "--out", tmp_path)
+    assert code == 2
+    assert "Debug-T1-v0" in stderr and "Velocity-T1-v0" in stderr
 
 
 def test_verdict_fails_a_checked_run_that_misses_a_criterion(monkeypatch):

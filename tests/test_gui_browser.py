@@ -12,6 +12,8 @@ import pytest
 from browser import (PlayProcess, canvas_image, changed_pixels, chrome, click_text, input_next_to, needs_browser,
                      page_text, screenshot_png, type_number, wait_for)
 
+pytestmark = pytest.mark.browser  # run apart from the parallel workers (pytest -m browser)
+
 SCREENSHOT_DIR_ENV = "AGILE_SCREENSHOT_DIR"
 """Where the screenshots go besides the test's folder (the docs' pictures are made this way)."""
 

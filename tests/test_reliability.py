@@ -163,7 +163,7 @@ def test_a_missing_checkpoint_is_refused_before_anything_is_built(capsys):
 
     with pytest.raises(SystemExit) as exit_info:
         main(["--task", "Velocity-T1-v0", "--checkpoint", "no/such/model_1.pt"])
-    assert exit_info.value.code == 2 and "--checkpoint not found: no/such/model_1.pt" in capsys.readouterr().err
+    assert exit_info.value.code == 2 and "--checkpoint file not found: no/such/model_1.pt" in capsys.readouterr().err
     from agile.rl_env.rsl_rl.checkpoints import TRUST_FLAG
 
     assert cli.TRUST_FLAG == TRUST_FLAG

@@ -1,4 +1,5 @@
-"""The scripts as a user runs them (subprocesses, CPU)."""
+"""The commands as a user runs them (CPU), in this process (`agile.run.<command>.main`); a subprocess only where the
+process's own output is the point (what the libraries underneath print)."""
 
 import json
 import re
@@ -8,19 +9,31 @@ from pathlib import Path
 
 import pytest
 import yaml
+from commands import run_command
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def run(*args, timeout=600):
+def command_of(script: str) -> str:
+    """scripts/train.py -> train (the thin wrappers' commands)."""
+    return Path(script).stem
+
+
+def run(script, *args, timeout=600):
+    """(exit code, stdout and stderr) of `python scripts/<command>.py ARGS`, run in this process from the checkout."""
+    code, out, err = run_command(command_of(script), *args, cwd=ROOT)
+    return code, out + err
+
+
+def run_split(script, *args, timeout=600):
+    """(exit code, stdout, stderr)."""
+    return run_command(command_of(script), *args, cwd=ROOT)
+
+
+def run_process(*args, timeout=600):
+    """(exit code, stdout and stderr) of a fresh interpreter: for what Warp and torch print outside Python."""
     result = subprocess.run([sys.executable, *args], cwd=ROOT, capture_output=True, text=True, timeout=timeout)
     return result.returncode, result.stdout + result.stderr
-
-
-def run_split(*args, timeout=600):
-    """(exit code, stdout, stderr)."""
-    result = subprocess.run([sys.executable, *args], cwd=ROOT, capture_output=True, text=True, timeout=timeout)
-    return result.returncode, result.stdout, result.stderr
 
 
 NOISE = ("load on device", "Actor Model", "Critic Model", "Could not find git repository", "FutureWarning",
@@ -74,13 +87,13 @@ def test_help_of_every_command(command, capsys):
 
 def test_a_quiet_run_prints_no_library_noise(trained_run):
     run_dir, args = trained_run
-    code, out = run(*args[:-1], "--resume", "agent.num_steps_per_env=4")
+    code, out = run_process(*args[:-1], "--resume", "agent.num_steps_per_env=4")
     assert code == 0, out
     assert not [n for n in NOISE if n in out], out
     assert "Learning iteration" in out and "\x1b[" not in out, out  # rsl-rl's block, without bold codes in a log
     assert "[agile] building Velocity-T1-v0" in out  # a word of progress before the long first build
-    code, out = run("scripts/play.py", "--task", "Velocity-T1-v0", "--num_envs", "1", "--num_steps", "2",
-                    "--device", "cpu", "--verbose")
+    code, out = run_process("scripts/play.py", "--task", "Velocity-T1-v0", "--num_envs", "1", "--num_steps", "2",
+                            "--device", "cpu", "--verbose")
     assert code == 0 and "load on device" in out, out  # --verbose shows Warp's module loads again
 
 
@@ -360,9 +373,8 @@ def test_learning_curve_reads_run_folders_and_agent_groups(tmp_path):
 
 def test_learning_curve_refuses_a_folder_without_logs(tmp_path):
     (tmp_path / "empty").mkdir()
-    result = subprocess.run([sys.executable, str(Path(__file__).resolve().parents[1] / "scripts" / "plot_learning_curve.py"), str(tmp_path / "empty")],
-                            capture_output=True, text=True, timeout=120)
-    assert result.returncode != 0 and "no tensorboard event files" in result.stderr
+    code, _, err = run_split("scripts/plot_learning_curve.py", str(tmp_path / "empty"))
+    assert code != 0 and "no tensorboard event files" in err
 
 
 def test_error_by_command_bins_hand_values():

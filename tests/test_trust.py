@@ -1,13 +1,11 @@
 """Nothing runs code from a checkpoint, and the viewer listens on this machine only unless told otherwise."""
 
-import os
 import socket
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import torch
+from commands import run_command
 from evil_payload import Payload
 
 from agile.rl_env.rsl_rl.checkpoints import UntrustedCheckpointError, load_checkpoint
@@ -16,12 +14,11 @@ ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = sorted((ROOT / "agile" / "data" / "policy").glob("*.pt"))
 
 
-def run(*args, timeout=600):
-    # the payload's module is importable, so an unsafe load would run it
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "tests"), os.environ.get("PYTHONPATH", "")])}
-    result = subprocess.run([sys.executable, *args], cwd=ROOT, capture_output=True, text=True, timeout=timeout,
-                            env=env)
-    return result.returncode, result.stdout + result.stderr
+def run(script, *args, timeout=600):
+    """(exit code, stdout and stderr) of `python scripts/<command>.py ARGS`, in this process (the payload's module
+    is importable here, so an unsafe load would run it)."""
+    code, out, err = run_command(Path(script).stem, *args, cwd=ROOT)
+    return code, out + err
 
 
 @pytest.fixture

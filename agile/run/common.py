@@ -68,11 +68,11 @@ def check_paths(args) -> None:
     for name in ("checkpoint", "teacher"):
         path = getattr(args, name, None)
         if isinstance(path, str) and not os.path.exists(path):
-            fail(f"--{name} not found: {path}")
+            fail(f"--{name} file not found: {path}")
     for spec in getattr(args, "init_policy", None) or []:
         path = spec.split("=", 1)[1] if "=" in spec and not os.path.exists(spec) else spec
         if not os.path.exists(path):
-            fail(f"--init_policy not found: {path}")
+            fail(f"--init_policy file not found: {path}")
 
 
 def configure_output(verbose: bool) -> None:
