@@ -18,6 +18,16 @@ wp.config.quiet = True
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))  # the one-off data generators
 
 
+@pytest.fixture(scope="module", autouse=True)
+def free_envs_after_each_module():
+    """Envs and runners sit in reference cycles that hold the simulation's buffers until the garbage collector next
+    runs: collect after every module, so that a worker running many does not grow until it is killed."""
+    yield
+    import gc
+
+    gc.collect()
+
+
 def pytest_collection_modifyitems(config, items):
     if wp.is_cuda_available():
         return
