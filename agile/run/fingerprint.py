@@ -191,10 +191,10 @@ def first_divergence(expected: dict[str, np.ndarray], actual: dict[str, np.ndarr
             e, a = expected[name][step], actual[name][step].astype(np.float32)
             bad = ~(np.abs(a - e) <= atol + rtol * np.abs(e)) & ~(np.isnan(a) & np.isnan(e))
             if bad.any():
-                env, *entry = np.argwhere(bad)[0]
+                first = tuple(np.argwhere(bad)[0])
+                env, *entry = first
                 where = f"env {env}" + (f", entry {tuple(int(i) for i in entry)}" if entry else "")
-                return (f"step {step}: {name} ({where}) is {a[tuple(np.argwhere(bad)[0])]:.6g}, recorded "
-                        f"{e[tuple(np.argwhere(bad)[0])]:.6g}")
+                return f"step {step}: {name} ({where}) is {a[first]:.6g}, recorded {e[first]:.6g}"
     return None
 
 

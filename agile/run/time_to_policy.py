@@ -200,7 +200,9 @@ def main(argv=None) -> int:
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="agile_time_to_policy_") as log_root:
         result = run_until_criteria(args, criteria, device, log_root, Path(f"{args.out}.log"))
-    result.update(device=device, commit=cli_commit())
+    from agile.run.eval_all import source_commit
+
+    result.update(device=device, commit=source_commit())
     Path(f"{args.out}.json").write_text(json.dumps(result, indent=2))
     try:
         plot(result, f"{args.out}.png")
@@ -211,12 +213,6 @@ def main(argv=None) -> int:
                                       if met is not None else f"criteria not met within {args.budget_s:g} s")
           + f"; first iteration at {result['first_iteration_s']} s; {args.out}.json")
     return 0 if met is not None else 1
-
-
-def cli_commit() -> str:
-    from agile.run.eval_all import source_commit
-
-    return source_commit()
 
 
 if __name__ == "__main__":
