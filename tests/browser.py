@@ -66,6 +66,8 @@ class PlayProcess:
         try:
             rest, _ = self.proc.communicate(timeout=STOP_TIMEOUT_S)
         except subprocess.TimeoutExpired:  # never leave a server running behind a failed test
+            self.proc.send_signal(signal.SIGUSR1)  # play.py prints every thread's stack: where it hangs
+            time.sleep(2.0)
             self.proc.kill()
             rest, _ = self.proc.communicate()
             self.output.append(rest)

@@ -175,7 +175,8 @@ def test_newton_and_plain_mujoco_agree_on_the_same_torques(exported):
 def check_sim2mujoco_runs(out: Path, episodes: int = 1) -> None:
     descriptor = read_io_descriptor(str(out / "io_descriptor.yaml"))
     for policy in ("policy.pt", "policy.onnx"):
-        metrics = sim2mujoco.run(descriptor, sim2mujoco.default_mjcf(descriptor), str(out / policy),
+        metrics = sim2mujoco.run(descriptor, sim2mujoco.default_mjcf(descriptor),
+                                 lambda robot: sim2mujoco.DescriptorPolicy(descriptor, robot, str(out / policy)),
                                  episodes=episodes, duration_s=0.5, command=[0.3, 0.0, 0.0])
         assert metrics["episodes"] == episodes and 0 < metrics["mean_episode_length_s"] <= 0.5 + 1e-9
         assert np.isfinite(metrics["lin_vel_error_mps"]) and 0 <= metrics["falls"] <= episodes

@@ -14,6 +14,7 @@ from browser import free_port
 
 import agile.tasks  # noqa: F401
 from agile.gui import ActionSliders, BrowserViewer, limb_of
+from agile.gui.panels import VALUES_EVERY_STEPS
 from agile.gui.viewer import camera_pose
 from agile.rl_env import ManagerBasedRLEnv
 from agile.rl_env.managers import ActionTerm
@@ -118,6 +119,12 @@ def test_object_sliders_pose_the_object_and_the_rewards_follow(gui):
     # the plot holds the last steps of every term, newest last
     assert viewer.rewards.history.shape == (len(env.reward_manager.step_reward), 200)
     assert viewer.rewards.history[viewer.rewards.names.index("lifting_object"), -6] == pytest.approx(0.5)
+    history = viewer.rewards.history.copy()
+    viewer.render(env, 0.0)  # paused: drawn again without a step, nothing added
+    assert np.array_equal(history, viewer.rewards.history, equal_nan=True)
+    for _ in range(VALUES_EVERY_STEPS):  # the latest values as text (uPlot's legend shows them only under the mouse)
+        step(env, viewer, sliders)
+    assert "**is_alive** +1.000" in viewer.rewards.values_text.content
 
 
 def test_reset_button_resets_the_env_and_the_sliders(gui):
@@ -215,3 +222,24 @@ def test_object_sliders_start_at_the_objects_place_in_its_env():
             assert env_pos == pytest.approx(CUBE_POSITION_M, abs=1e-4)
     finally:
         viewer.close()
+
+
+def test_ctrl_c_ends_the_play_loop_between_steps_and_a_second_one_interrupts():
+    """The first SIGINT only asks the loop to stop (no KeyboardInterrupt inside a viser or Warp call, which could
+    leave a lock held and hang the shutdown); a second one interrupts at once; the handler is put back after."""
+    import os
+    import signal
+
+    from agile.run.play import CtrlC
+
+    before = signal.getsignal(signal.SIGINT)
+    ctrl_c = CtrlC()
+    try:
+        assert not ctrl_c.requested
+        os.kill(os.getpid(), signal.SIGINT)
+        assert ctrl_c.requested
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGINT)
+    finally:
+        ctrl_c.restore()
+    assert signal.getsignal(signal.SIGINT) is before

@@ -19,7 +19,11 @@ the robot at the reference pose, about 1 m to its right: the robot and what it t
 
 from __future__ import annotations
 
+import faulthandler
 import math
+import signal
+import sys
+import threading
 import time
 
 from agile.run import common as cli
@@ -42,6 +46,34 @@ def sinusoidal_actions(step: int, step_dt: float, num_envs: int, action_dim: int
 
 
 DEFAULT_HEADLESS_STEPS = 1000
+
+
+class CtrlC:
+    """Ctrl-C (SIGINT) ends the run between two steps: the first one sets `requested`, which the loop reads; a
+    second one interrupts at once (KeyboardInterrupt). A KeyboardInterrupt raised wherever the loop happens to be
+    can cut a viser or Warp call in half and leave a lock held, and the shutdown then waits on that lock.
+
+    Also `kill -USR1 <pid>` prints every thread's stack (faulthandler): what to send a viewer that stops answering.
+    Installed only from the main thread, and not where SIGINT is ignored (a background job's children)."""
+
+    def __init__(self):
+        self.requested = False
+        self._previous = None
+        if threading.current_thread() is threading.main_thread():
+            if sys.__stderr__ is not None:
+                faulthandler.register(signal.SIGUSR1, file=sys.__stderr__, all_threads=True)
+            if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+                self._previous = signal.signal(signal.SIGINT, self._handle)
+
+    def _handle(self, signum, frame) -> None:
+        if self.requested:
+            raise KeyboardInterrupt
+        self.requested = True
+
+    def restore(self) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+            self._previous = None
 
 
 def with_visual_meshes(env_cfg):
@@ -165,9 +197,10 @@ def main(argv=None) -> None:
     episodes = falls = step = 0
     reward_sum = torch.zeros((), device=env.device)
     wall_start = time.perf_counter()
+    ctrl_c = CtrlC()
     try:
         with torch.inference_mode():
-            while num_steps is None or step < num_steps:
+            while (num_steps is None or step < num_steps) and not ctrl_c.requested:
                 start = time.perf_counter()
                 if viewer is not None:
                     if not viewer.is_running():
@@ -206,6 +239,10 @@ def main(argv=None) -> None:
                 if args.real_time or viewer is not None:  # a viewer shows the motion at its real speed
                     time.sleep(max(0.0, env.step_dt - (time.perf_counter() - start)))
     except KeyboardInterrupt:
+        pass
+    finally:
+        ctrl_c.restore()
+    if ctrl_c.requested:
         print("[agile] stopped")
     elapsed = time.perf_counter() - wall_start
     print(f"[agile] {step} steps in {elapsed:.1f} s ({step * env.num_envs / elapsed:.0f} env-steps/s); "

@@ -3,8 +3,11 @@
     agile export --task Velocity-G1-History-v0 --out exported/g1
     agile sim2mujoco --io exported/g1/io_descriptor.yaml --policy exported/g1/policy.pt \
         --command 0.5 0 0 --episodes 3 --duration_s 10
+    agile export --task Velocity-T1-v0 --format leapp --out exported/leapp
+    agile sim2mujoco --bundle exported/leapp/Velocity-T1-v0/Velocity-T1-v0.yaml --episodes 10 --duration_s 20
 
-Nothing of the training framework is used: observations and actions are rebuilt from the descriptor,
+Nothing of the training framework is used: observations and actions are rebuilt from the descriptor (or, for
+a LEAPP bundle, computed by the bundle's own graph through LEAPP's runtime from raw MuJoCo state),
 the joint torques come from the descriptor's gains and DC-motor limits (computed at the physics rate and
 applied as joint forces), and the robot collides with a ground plane. A recurrent policy carries its hidden
 state from step to step and starts each episode from zeros. The actuator delays of training are not
@@ -17,11 +20,12 @@ from __future__ import annotations
 import json
 import math
 import sys
-from collections import deque
 from pathlib import Path
 
 import numpy as np
 from agile.run import common as cli
+from agile.run.mujoco_policy import (BundlePolicy, DescriptorPolicy, OnnxPolicy, TorchScriptPolicy,  # noqa: F401
+                                     bundle_descriptor, read_bundle, rotate_inverse, yaml_load)
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # for agile.assets (robot files) from a checkout
 
@@ -98,114 +102,6 @@ class Robot:
         return np.clip(tau, tau_min, tau_max)
 
 
-def rotate_inverse(quat_wxyz: np.ndarray, v: np.ndarray) -> np.ndarray:
-    w, x, y, z = quat_wxyz
-    rot = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                    [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                    [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-    return rot.T @ v
-
-
-class Observer:
-    """The actor's input from the descriptor's observation terms: scale, clip, per-term history."""
-
-    def __init__(self, descriptor: dict, robot: Robot):
-        self.terms = [t for g in descriptor["observation_groups"] for t in descriptor["observations"][g]]
-        self.robot = robot
-        self.history = [deque(maxlen=max(t["history_length"], 1)) for t in self.terms]
-
-    def reset(self) -> None:
-        for h in self.history:
-            h.clear()
-
-    def _value(self, term: dict, data, command: np.ndarray, last_action: np.ndarray) -> np.ndarray:
-        r = self.robot
-        quat = data.qpos[3:7]
-        ids = [r.index[n] for n in term.get("joint_names", r.d["joint_names"])]
-        q = data.qpos[r.qpos_adr][ids]
-        qd = data.qvel[r.dof_adr][ids]
-        func = term["func"]
-        if func == "base_lin_vel":
-            return r.root_lin_vel_b(data)
-        if func == "base_ang_vel":
-            return data.qvel[3:6].copy()  # MuJoCo's free-joint angular velocity is in the body frame
-        if func == "projected_gravity":
-            return rotate_inverse(quat, np.array([0.0, 0.0, -1.0]))
-        if func == "generated_commands":
-            return command
-        if func == "joint_pos_rel":
-            return q - r.default_q[ids]
-        if func == "joint_pos":
-            return q
-        if func == "joint_vel_rel":
-            return qd
-        if func == "last_action":
-            return last_action
-        raise ValueError(f"observation term '{term['name']}': function '{func}' is not supported by sim2mujoco")
-
-    def __call__(self, data, command: np.ndarray, last_action: np.ndarray) -> np.ndarray:
-        parts = []
-        for term, history in zip(self.terms, self.history):
-            value = np.asarray(self._value(term, data, command, last_action), dtype=np.float64)
-            if term["clip"] is not None:
-                value = np.clip(value, *term["clip"])
-            if term["scale"] is not None:
-                value = value * term["scale"]
-            if not history:
-                history.extend([value] * history.maxlen)  # a fresh history repeats the first value
-            else:
-                history.append(value)
-            parts.extend(history)
-        return np.concatenate(parts).astype(np.float32)
-
-
-class OnnxPolicy:
-    """An ONNX policy stepped once per control step. A recurrent one gets its hidden state back every step
-    (names and shapes from the descriptor's "policy" section), zeros at reset(). `session` is anything with
-    ONNX Runtime's run(output_names, feeds): onnx's ReferenceEvaluator (no extra dependency) or onnxruntime's."""
-
-    def __init__(self, session, interface: dict):
-        self.session = session
-        self.interface = interface
-        self.hidden = interface.get("hidden_state", [])
-        self.reset()
-
-    def reset(self) -> None:
-        self.state = {h["input"]: np.zeros(h["shape"], dtype=np.float32) for h in self.hidden}
-
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
-        names = [self.interface["output"]] + [h["output"] for h in self.hidden]
-        action, *state = self.session.run(names, {self.interface["input"]: obs[None], **self.state})
-        self.state = {h["input"]: value for h, value in zip(self.hidden, state)}
-        return action[0]
-
-
-class TorchScriptPolicy:
-    """A TorchScript policy stepped once per control step; a recurrent one keeps its hidden state inside."""
-
-    def __init__(self, path: str):
-        import torch
-
-        self.torch = torch
-        self.module = torch.jit.load(path, map_location="cpu")
-
-    def reset(self) -> None:
-        self.module.reset()  # zeros a recurrent policy's hidden state (a no-op for an MLP)
-
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
-        with self.torch.no_grad():
-            return self.module(self.torch.from_numpy(obs)[None]).numpy()[0]
-
-
-def load_policy(path: str, interface: dict):
-    """policy.onnx or policy.pt as a callable obs -> action with reset() for the start of an episode."""
-    if path.endswith(".onnx"):
-        from onnx.reference import ReferenceEvaluator
-
-        return OnnxPolicy(ReferenceEvaluator(path), interface)
-    return TorchScriptPolicy(path)
-
-
 class CommandSampler:
     """Draws an episode's command as the training command term did, from the descriptor's "commands" entry:
     (vx, vy, wz) uniform in the ranges, or for a velocity-and-height command (a `base_height_m` range) either
@@ -228,19 +124,17 @@ class CommandSampler:
         return [*velocity, self.params.get("default_height_m", self.ranges["base_height_m"][1])]
 
 
-def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s: float, command=None,
+def run(descriptor: dict, mjcf: str, make_policy, episodes: int, duration_s: float, command=None,
         seed: int = 0, on_frame=None) -> dict:
+    """`make_policy(robot)` gives the controller (DescriptorPolicy or BundlePolicy): reset() at the start of an
+    episode, then once per control step it sets the robot's joint targets from the MuJoCo state and the command."""
     import mujoco
 
     rng = np.random.default_rng(seed)
     model = build_model(descriptor, mjcf)
     data = mujoco.MjData(model)
     robot = Robot(descriptor, model)
-    observer = Observer(descriptor, robot)
-    policy = load_policy(policy_path, descriptor["policy"])
-    action_terms = descriptor["actions"]
-    action_dim = sum(len(a["joint_names"]) for a in action_terms)
-    clip_actions = descriptor.get("clip_actions")  # older descriptors: none
+    policy = make_policy(robot)
     draw_command = CommandSampler(next(iter(descriptor["commands"].values())), rng)
     decimation = descriptor["decimation"]
     steps = int(round(duration_s / descriptor["control_dt_s"]))
@@ -253,28 +147,12 @@ def run(descriptor: dict, mjcf: str, policy_path: str, episodes: int, duration_s
         data.qpos[robot.qpos_adr] = robot.default_q
         robot.target = robot.default_q.copy()
         mujoco.mj_forward(model, data)
-        observer.reset()
         policy.reset()
         cmd = np.array(command if command is not None else draw_command())
         if len(cmd) != draw_command.dim:
             raise ValueError(f"--command has {len(cmd)} values; the policy's command has {draw_command.dim}")
-        last_action = np.zeros(action_dim)
         for step in range(steps):
-            # clamped as the env clamps it (ActionManager.process_action): the last-action observation the policy
-            # was trained with
-            action = np.asarray(policy(observer(data, cmd, last_action)), dtype=np.float64)
-            if clip_actions is not None:
-                action = np.clip(action, -clip_actions, clip_actions)
-            last_action = action
-            start = 0
-            for term in action_terms:
-                ids = [robot.index[n] for n in term["joint_names"]]
-                raw = action[start:start + len(ids)]
-                start += len(ids)
-                target = raw * np.array(term["scale"]) + np.array(term["offset"])
-                if "clip" in term:
-                    target = np.clip(target, term["clip"][0], term["clip"][1])
-                robot.target[ids] = target
+            policy(data, cmd)
             for _ in range(decimation):
                 data.qfrc_applied[robot.dof_adr] = robot.torque(data.qpos[robot.qpos_adr], data.qvel[robot.dof_adr])
                 mujoco.mj_step(model, data)
@@ -342,8 +220,11 @@ class MujocoVideo:
 
 def main(argv=None) -> None:
     parser = cli.new_parser(__doc__)
-    parser.add_argument("--io", required=True, help="io_descriptor.yaml written by agile export")
-    parser.add_argument("--policy", required=True, help="policy.pt (TorchScript) or policy.onnx")
+    parser.add_argument("--io", default=None, help="io_descriptor.yaml written by agile export (with --policy)")
+    parser.add_argument("--policy", default=None, help="policy.pt (TorchScript) or policy.onnx (with --io)")
+    parser.add_argument("--bundle", default=None, metavar="TASK.yaml",
+                        help="a LEAPP bundle (agile export --format leapp), run by LEAPP's runtime; instead of "
+                             "--io and --policy")
     parser.add_argument("--mjcf", default=None, help="robot MJCF (default: the asset package's file)")
     parser.add_argument("--episodes", type=int, default=3, help="episodes to run, each from the default pose")
     parser.add_argument("--duration_s", type=float, default=10.0, help="length of each episode [s]")
@@ -354,27 +235,35 @@ def main(argv=None) -> None:
     parser.add_argument("--video", default=None, metavar="PATH.mp4",
                         help="render the rollout headless into an mp4 (camera following the robot)")
     args = cli.parse(parser, argv)
+    if (args.bundle is None) == (args.io is None or args.policy is None) or (args.bundle and (args.io or args.policy)):
+        cli.fail("give either --bundle, or --io and --policy")
+    if args.bundle:
+        descriptor = bundle_descriptor(read_bundle(args.bundle))
 
-    import yaml
+        def make_policy(robot):
+            return BundlePolicy(args.bundle, robot)
+    else:
+        descriptor = yaml_load(args.io)
+        if descriptor.get("version") != IO_DESCRIPTOR_VERSION:
+            cli.fail(f"{args.io} is an IO descriptor of version {descriptor.get('version')}, this script reads "
+                     f"version {IO_DESCRIPTOR_VERSION}: export the policy again with agile export")
+        not_joint_targets = [f"{a['name']} ({a['type']})" for a in descriptor["actions"] if "offset" not in a]
+        if not_joint_targets:
+            cli.fail(f"{args.io}: sim2mujoco runs policies whose actions are joint targets (action · scale + offset); "
+                     f"these action terms are not: {not_joint_targets}")
 
-    descriptor = yaml.safe_load(Path(args.io).read_text())
-    if descriptor.get("version") != IO_DESCRIPTOR_VERSION:
-        cli.fail(f"{args.io} is an IO descriptor of version {descriptor.get('version')}, this script reads version "
-                 f"{IO_DESCRIPTOR_VERSION}: export the policy again with agile export")
-    not_joint_targets = [f"{a['name']} ({a['type']})" for a in descriptor["actions"] if "offset" not in a]
-    if not_joint_targets:
-        cli.fail(f"{args.io}: sim2mujoco runs policies whose actions are joint targets (action · scale + offset); "
-                 f"these action terms are not: {not_joint_targets}")
+        def make_policy(robot):
+            return DescriptorPolicy(descriptor, robot, args.policy)
     mjcf = args.mjcf or default_mjcf(descriptor)
     video = MujocoVideo(args.video, mjcf, round(1.0 / descriptor["control_dt_s"])) if args.video else None
     try:
-        metrics = run(descriptor, mjcf, args.policy, args.episodes, args.duration_s, args.command, args.seed,
+        metrics = run(descriptor, mjcf, make_policy, args.episodes, args.duration_s, args.command, args.seed,
                       on_frame=video)
     finally:
         if video is not None:
             video.close()
             print(f"[sim2mujoco] video ({video.video.frames} frames) written to {args.video}")
-    metrics.update({"io_descriptor": args.io, "policy": args.policy, "mjcf": mjcf, "command": args.command,
+    metrics.update({"io_descriptor": args.io, "policy": args.policy, "bundle": args.bundle, "mjcf": mjcf, "command": args.command,
                     "duration_s": args.duration_s})
     print(json.dumps(metrics, indent=2))
     if args.out:

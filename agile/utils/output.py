@@ -4,6 +4,8 @@ AGILE_VERBOSE=1 in the environment (the commands' --verbose sets it) shows them 
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import sys
 import tempfile
@@ -50,3 +52,20 @@ def init_warp_without_driver_warning() -> None:
     lines = [line for line in text.splitlines() if line.strip() and not line.startswith(WARP_NO_DRIVER_MESSAGE)]
     if lines:
         print("\n".join(lines), file=sys.stderr)
+
+
+@contextlib.contextmanager
+def quiet_python_output():
+    """What libraries print from Python while inside (leapp's export log and its console handler, which binds to
+    the stderr of the moment it is made; onnx's optimiser notes), swallowed unless `verbose()`. On an error the
+    swallowed text is printed to stderr, so that nothing that explains a failure is lost."""
+    if verbose():
+        yield
+        return
+    captured = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(captured), contextlib.redirect_stderr(captured):
+            yield
+    except BaseException:
+        print(captured.getvalue(), file=sys.stderr, end="")
+        raise
