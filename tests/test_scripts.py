@@ -19,6 +19,10 @@ def command_of(script: str) -> str:
     return Path(script).stem
 
 
+FLAT_GROUND = ("env.scene.terrain=null", "env.curriculum.terrain_levels=null")
+"""Overrides for a test of something other than the terrain: building a rough terrain costs seconds on a CPU."""
+
+
 def run(script, *args, timeout=600):
     """(exit code, stdout and stderr) of `python scripts/<command>.py ARGS`, run in this process from the checkout."""
     code, out, err = run_command(command_of(script), *args, cwd=ROOT)
@@ -43,7 +47,8 @@ NOISE = ("load on device", "Actor Model", "Critic Model", "Could not find git re
 
 @pytest.fixture(scope="module")
 def trained_run(tmp_path_factory):
-    """A 2-iteration T1 training run on CPU: (its log folder, the train command line)."""
+    """A 2-iteration T1 training run on CPU, on its terrain (a resume restores the terrain levels): (its log folder,
+    the train command line)."""
     log_root = tmp_path_factory.mktemp("logs")
     args = ["scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "2",
             "--device", "cpu", "--log_root", str(log_root), "agent.num_steps_per_env=4"]
@@ -93,7 +98,7 @@ def test_a_quiet_run_prints_no_library_noise(trained_run):
     assert "Learning iteration" in out and "\x1b[" not in out, out  # rsl-rl's block, without bold codes in a log
     assert "[agile] building Velocity-T1-v0" in out  # a word of progress before the long first build
     code, out = run_process("scripts/play.py", "--task", "Velocity-T1-v0", "--num_envs", "1", "--num_steps", "2",
-                            "--device", "cpu", "--verbose")
+                            "--device", "cpu", "--verbose", *FLAT_GROUND)
     assert code == 0 and "load on device" in out, out  # --verbose shows Warp's module loads again
 
 
@@ -145,7 +150,7 @@ def test_train_with_injected_nan_actions_logs_the_envs_it_ended(tmp_path):
 
     code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "4", "--max_iterations", "2",
                     "--device", "cpu", "--log_root", str(tmp_path), "--inject_nan_actions", "0.5", "1",
-                    "agent.num_steps_per_env=4")
+                    "agent.num_steps_per_env=4", *FLAT_GROUND)
     assert code == 0, out
     assert "fault injection 1: NaN actions in 2 envs" in out and "fault injection 2" not in out, out
     iterations = out.split("Learning iteration ")[1:]
@@ -163,7 +168,7 @@ def test_train_init_policy_starts_from_the_shipped_actor(tmp_path):
     shipped = ROOT / "agile" / "data" / "policy" / "Velocity-T1-v0.pt"
     code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "1",
                     "--device", "cpu", "--log_root", str(tmp_path), "--init_policy", str(shipped),
-                    "agent.num_steps_per_env=4")
+                    "agent.num_steps_per_env=4", *FLAT_GROUND)
     assert code == 0 and "actor initialised from" in out, out
     checkpoint = next((tmp_path / "velocity_t1").iterdir()) / "model_0.pt"
     trained = torch.load(checkpoint, weights_only=True)
@@ -182,7 +187,7 @@ def test_train_init_action_std_resets_the_loaded_actors_noise(tmp_path):
     shipped = ROOT / "agile" / "data" / "policy" / "Velocity-T1-v0.pt"
     code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "1",
                     "--device", "cpu", "--log_root", str(tmp_path), "--init_policy", str(shipped),
-                    "--init_action_std", "0.4", "agent.num_steps_per_env=4")
+                    "--init_action_std", "0.4", "agent.num_steps_per_env=4", *FLAT_GROUND)
     assert code == 0 and "action noise reset to std 0.4" in out, out
     run_dir = next((tmp_path / "velocity_t1").iterdir())
     trained = torch.load(run_dir / "model_0.pt", weights_only=True)["actor_state_dict"]
@@ -251,12 +256,13 @@ def test_play_and_eval_run_a_checkpoint(trained_run, tmp_path):
     run_dir, _ = trained_run
     checkpoint = str(sorted(run_dir.glob("model_*.pt"))[-1])
     code, out = run("scripts/play.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--num_steps", "5",
-                    "--device", "cpu", "--checkpoint", checkpoint)
+                    "--device", "cpu", "--checkpoint", checkpoint, *FLAT_GROUND)
     assert code == 0 and "5 steps" in out, out
     metrics_file = tmp_path / "eval.json"
+    # flat ground for the USD stage: a rough terrain is a 6-million-vertex mesh in it (a minute of writing on a CPU)
     code, out = run("scripts/eval.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--device", "cpu",
                     "--checkpoint", checkpoint, "--episode_length_s", "0.5", "--out", str(metrics_file),
-                    "--usd", str(tmp_path / "eval.usda"))
+                    "--usd", str(tmp_path / "eval.usda"), *FLAT_GROUND)
     assert code == 0 and (tmp_path / "eval.usda").is_file(), out
     metrics = json.loads(metrics_file.read_text())
     assert metrics["episodes"] >= 2 and 0.0 <= metrics["fall_rate"] <= 1.0
@@ -272,7 +278,8 @@ def test_actor_only_policy_file_loads_like_a_checkpoint(trained_run, tmp_path):
     actor_only = tmp_path / "actor.pt"
     torch.save({"actor_state_dict": saved["actor_state_dict"], "iter": saved["iter"], "infos": None}, actor_only)
     code, out = run("scripts/eval.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--device", "cpu",
-                    "--checkpoint", str(actor_only), "--episode_length_s", "0.2", "--command", "0.3", "0", "0")
+                    "--checkpoint", str(actor_only), "--episode_length_s", "0.2", "--command", "0.3", "0", "0",
+                    *FLAT_GROUND)
     assert code == 0 and '"fall_rate"' in out, out
 
 
@@ -282,7 +289,7 @@ def test_export_and_sim2mujoco_scripts(trained_run, tmp_path):
     checkpoint = str(sorted(run_dir.glob("model_*.pt"))[-1])
     out = tmp_path / "exported"
     code, text = run("scripts/export.py", "--task", "Velocity-T1-v0", "--device", "cpu", "--checkpoint", checkpoint,
-                     "--out", str(out))
+                     "--out", str(out), *FLAT_GROUND)
     assert code == 0 and (out / "io_descriptor.yaml").is_file(), text
     metrics_file = tmp_path / "s2m.json"
     code, text = run("scripts/sim2mujoco.py", "--io", str(out / "io_descriptor.yaml"), "--policy",
@@ -297,7 +304,7 @@ def test_play_records_a_usd_stage_with_one_sample_per_step(tmp_path):
 
     stage_path = tmp_path / "rollout.usda"
     code, out = run("scripts/play.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--num_steps", "7",
-                    "--device", "cpu", "--usd", str(stage_path))
+                    "--device", "cpu", "--usd", str(stage_path), *FLAT_GROUND)
     assert code == 0 and stage_path.is_file(), out
     stage = Usd.Stage.Open(str(stage_path))
     samples = {a.GetNumTimeSamples() for p in stage.Traverse() for a in p.GetAttributes()
@@ -326,7 +333,7 @@ def test_train_records_clips_every_n_iterations(tmp_path):
     code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "2",
                     "--device", "cpu", "--log_root", str(tmp_path), "--video", "--video_interval", "1",
                     "--video_length", "3", "--rnn", "gru", "agent.num_steps_per_env=4", "agent.actor.rnn_hidden_dim=16",
-                    "agent.critic.rnn_hidden_dim=16")
+                    "agent.critic.rnn_hidden_dim=16", *FLAT_GROUND)
     assert code == 0, out
     run_dir = next((tmp_path / "velocity_t1").iterdir())
     assert sorted(p.name for p in (run_dir / "videos").iterdir()) == ["iteration_1.mp4", "iteration_2.mp4"]

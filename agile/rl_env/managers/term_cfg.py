@@ -39,6 +39,10 @@ class SceneEntityCfg:
                 self.body_ids = torch.tensor(ids, dtype=torch.long, device=env.device)
 
 
+ROBOT = SceneEntityCfg("robot")
+"""The default selector of most terms: the whole entity named "robot" (each term resolves its own copy)."""
+
+
 def index_list(ids, count: int) -> list[int]:
     """Resolved `joint_ids`/`body_ids` (a full slice or an index tensor) as a host list; build time only."""
     return list(range(count)) if isinstance(ids, slice) else ids.tolist()

@@ -9,14 +9,13 @@ import torch
 import warp as wp
 
 from agile.actuators import ExplicitActuatorGroup
-from agile.rl_env.managers import SceneEntityCfg, index_list
+from agile.rl_env.managers import ROBOT, SceneEntityCfg, index_list
 from agile.utils.math import quat_from_euler_xyz, quat_mul
 
 __all__ = ["apply_external_force_torque", "push_by_setting_velocity", "randomize_actuator_gains",
            "randomize_joint_parameters", "randomize_rigid_body_com", "randomize_rigid_body_mass",
            "randomize_rigid_body_material", "reset_joints_by_scale", "reset_root_state_uniform"]
 
-ROBOT = SceneEntityCfg("robot")
 AXES = ("x", "y", "z", "roll", "pitch", "yaw")
 
 

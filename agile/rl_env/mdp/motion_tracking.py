@@ -12,7 +12,7 @@ import functools
 
 import torch
 
-from agile.rl_env.managers import SceneEntityCfg
+from agile.rl_env.managers import ROBOT, SceneEntityCfg
 from agile.utils.math import quat_conjugate, quat_mul, quat_rotate, quat_rotate_inverse
 
 __all__ = ["bad_anchor_ori", "bad_anchor_pos_z_only", "bad_motion_body_pos_z_only", "motion_anchor_ori_b",
@@ -22,7 +22,6 @@ __all__ = ["bad_anchor_ori", "bad_anchor_pos_z_only", "bad_motion_body_pos_z_onl
            "motion_relative_body_position_error_exp", "quat_error_magnitude", "randomize_joint_default_pos",
            "robot_body_ori_b", "robot_body_pos_b"]
 
-ROBOT = SceneEntityCfg("robot")
 
 
 def _motion(env, command_name: str):

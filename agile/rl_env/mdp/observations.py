@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import torch
 
-from agile.rl_env.managers import SceneEntityCfg
+from agile.rl_env.managers import ROBOT, SceneEntityCfg
 
 __all__ = ["base_ang_vel", "base_height_above_ground", "base_height_from_sensor", "base_lin_vel",
            "contact_force_norm", "generated_commands", "height_scan", "height_scan_feet", "joint_pos",
            "joint_pos_rel", "joint_vel_rel", "last_action", "projected_gravity"]
 
-ROBOT = SceneEntityCfg("robot")
 
 
 def base_lin_vel(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:

@@ -12,7 +12,7 @@ import functools
 
 import torch
 
-from agile.rl_env.managers import SceneEntityCfg
+from agile.rl_env.managers import ROBOT, SceneEntityCfg
 from agile.rl_env.mdp.motion_tracking import quat_error_magnitude
 from agile.utils.math import quat_rotate, quat_rotate_inverse
 
@@ -22,7 +22,6 @@ __all__ = ["action_l2", "bad_base_pose", "bad_base_rotation", "bad_joint_pos", "
            "object_to_hand_pos_b", "out_of_bound", "palm_object_distance_exp", "palm_pose_w", "static_at_goal_exp",
            "trajectory_progress"]
 
-ROBOT = SceneEntityCfg("robot")
 OBJECT = SceneEntityCfg("object")
 
 

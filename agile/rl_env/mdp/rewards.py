@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import torch
 
-from agile.rl_env.managers import SceneEntityCfg
+from agile.rl_env.managers import ROBOT, SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
 from agile.utils.math import quat_conjugate, quat_mul, quat_rotate_inverse, wrap_to_pi, yaw_from_quat
 
@@ -17,7 +17,6 @@ __all__ = ["action_rate_l2", "action_rate_rate_l2", "ang_vel_xy_l2", "applied_to
            "joint_vel_limits", "jumping", "lin_vel_z_l2", "object_body_distance_exp", "object_is_lifted",
            "track_ang_vel_z_exp", "track_lin_vel_xy_exp", "undesired_contacts"]
 
-ROBOT = SceneEntityCfg("robot")
 
 
 # -- task -----------------------------------------------------------------------------------------

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import torch
 
-from agile.rl_env.managers import ManagerTermBase, SceneEntityCfg
+from agile.rl_env.managers import ManagerTermBase, ROBOT, SceneEntityCfg
 from agile.rl_env.mdp.rewards import body_projected_gravity
 from agile.rl_env.mdp.rewards_stand_up import standing
 from agile.utils.math import quat_conjugate, quat_mul, yaw_from_quat
@@ -17,7 +17,6 @@ __all__ = ["body_orientation_penalty", "bodies_lin_vel_l2", "completely_airborne
            "joint_pos_tracking_error_l2", "moving_if_tracking", "relaxation_penalty", "severely_tilted_penalty",
            "track_height_command_exp", "upright_orientation_after_standing"]
 
-ROBOT = SceneEntityCfg("robot")
 ORIENTATION_AXES = ("roll", "pitch")
 ORIENTATION_DIRECTIONS = ("both", "forward", "backward")
 KERNELS = ("l1", "l2")

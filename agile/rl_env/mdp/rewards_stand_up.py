@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import torch
 
-from agile.rl_env.managers import SceneEntityCfg
+from agile.rl_env.managers import ROBOT, SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
 from agile.rl_env.mdp.rewards import feet_distance_from_ref, feet_yaw_mean_vs_base, joint_deviation_l1
 from agile.rl_env.mdp.rewards_velocity_height import joint_deviation_l2
@@ -14,7 +14,6 @@ from agile.rl_env.mdp.rewards_velocity_height import joint_deviation_l2
 __all__ = ["feet_distance_from_ref_if_standing", "feet_yaw_mean_vs_base_if_standing", "is_terminated_term",
            "joint_deviation_if_standing", "moving_if_standing", "standing"]
 
-ROBOT = SceneEntityCfg("robot")
 JOINT_DEVIATION_NORMS = ("l1", "l2")
 
 

@@ -8,7 +8,7 @@ import math
 
 import torch
 
-from agile.rl_env.managers import SceneEntityCfg
+from agile.rl_env.managers import ROBOT, SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
 from agile.rl_env.mdp.rewards import equal_foot_force
 
@@ -18,7 +18,6 @@ __all__ = ["base_height_in_threshold", "equal_foot_force_if_null_cmd", "flat_ori
            "track_ang_vel_z_world_exp", "track_base_height_exp_smooth", "track_lin_vel_xy_yaw_frame_exp",
            "track_lin_vel_xy_yaw_frame_exp_weighted"]
 
-ROBOT = SceneEntityCfg("robot")
 MIN_WEIGHTED_SPEED_MPS = 0.01
 """AGILE: the tracking weight rises from 1 at this commanded speed to 2 at the fastest command."""
 

@@ -6,14 +6,13 @@ import math
 
 import torch
 
-from agile.rl_env.managers import ManagerTermBase, SceneEntityCfg
+from agile.rl_env.managers import ManagerTermBase, ROBOT, SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
 from agile.rl_env.mdp.rewards import body_projected_gravity
 
 __all__ = ["bad_orientation", "illegal_ground_contact", "link_distance", "no_height_progress",
            "root_height_below_minimum", "time_out"]
 
-ROBOT = SceneEntityCfg("robot")
 
 
 def time_out(env) -> torch.Tensor:
