@@ -12,7 +12,7 @@ the body poses and velocities from the forward kinematics of the task's robot mo
 from __future__ import annotations
 from agile.run.common import fail, new_parser
 
-from agile.assets.unitree_g1 import g1_robot_cfg
+from agile.assets.unitree_g1 import g1_beyondmimic_actuators, g1_robot_cfg
 from agile.motion import save_motion
 from agile.motion.convert import G1_CSV_JOINT_NAMES, convert_csv
 
@@ -32,7 +32,7 @@ def main() -> None:
     if args.input_fps <= 0 or args.output_fps <= 0:
         fail("--input_fps and --output_fps must be positive")
     try:
-        motion = convert_csv(args.input, args.input_fps, args.output_fps, g1_robot_cfg("beyondmimic"),
+        motion = convert_csv(args.input, args.input_fps, args.output_fps, g1_robot_cfg(g1_beyondmimic_actuators()),
                              csv_joint_names=args.joint_names,
                              frame_range=tuple(args.frame_range) if args.frame_range else None)
     except (OSError, ValueError) as err:

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from agile.assets.unitree_g1 import g1_robot_cfg
+from agile.assets.unitree_g1 import g1_beyondmimic_actuators, g1_robot_cfg
 from agile.motion import SHIPPED_MOTIONS_DIR, save_motion
 from agile.motion.convert import G1_CSV_JOINT_NAMES, RobotKinematics, RootAndJoints, convert_csv, write_motion_csv
 from agile.sim.names import resolve_values
@@ -211,7 +211,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out_dir", type=Path, default=SHIPPED_MOTIONS_DIR)
     args = parser.parse_args()
-    robot = g1_robot_cfg("beyondmimic")
+    robot = g1_robot_cfg(g1_beyondmimic_actuators())
     kin = RobotKinematics(robot)
     for name, make in MOTIONS.items():
         motion = make(kin)

@@ -43,7 +43,7 @@ import torch
 import agile.tasks  # noqa: F401  (registers the tasks)
 from agile.assets.unitree_g1_with_hands import PALM_BODY, GRASP_POINT_M
 from agile.motion.trajectory_file import PHASES
-from agile.rl_env import mdp
+from agile.tasks.pick_place import mdp
 from agile.rl_env.managers import SceneEntityCfg
 from agile.utils.math import quat_rotate_inverse
 from make_pick_place_trajectories import STANDING_ROOT_PITCH_RAD, STANDING_ROOT_POS_M

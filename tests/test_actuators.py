@@ -148,10 +148,10 @@ def test_delayed_implicit_shifts_the_solver_targets_by_k_steps_and_restores_the_
 
 def test_g1_armature_set_builds_with_delayed_implicit_legs():
     from agile.actuators import DelayedTargetGroup
-    from agile.assets.unitree_g1 import g1_robot_cfg
+    from agile.assets.unitree_g1 import g1_armature_actuators, g1_robot_cfg
     from scenes import robot_sim
 
-    sim = robot_sim(g1_robot_cfg("armature_delayed_implicit"), 2)
+    sim = robot_sim(g1_robot_cfg(g1_armature_actuators()), 2)
     groups = [g for g in sim.actuator_groups if isinstance(g, DelayedTargetGroup)]
     assert len(groups) == 1 and len(groups[0].joint_ids) == 12
     knee = sim.scene["robot"].find_joints("left_knee_joint")[0][0]

@@ -61,7 +61,7 @@ def test_missed_criteria():
                            {"motion/joint_pos_error_rad": 0.1}) == ["motion/joint_pos_error_rad 0.2 > 0.1"]
 
 
-# What agile/tasks/locomotion/t1/velocity_env_cfg.py and g1/velocity_history_env_cfg.py set differently (the shared
+# What agile/tasks/velocity/t1/velocity_env_cfg.py and g1/velocity_history_env_cfg.py set differently (the shared
 # blocks of velocity_common.py with the robot's bodies and numbers as arguments), and the T1 runner's init std
 # (docs/agile_differences.md), as key paths three deep.
 EXPECTED_T1_G1_DIFF = {

@@ -4,14 +4,14 @@ import pytest
 import torch
 from fakes import FakeEnv
 
-from agile.assets.booster_t1 import t1_robot_cfg
+from agile.assets.booster_t1 import t1_implicit_actuators, t1_robot_cfg
 from agile.rl_env import ManagerBasedRLEnv, mdp
 from agile.rl_env.managers import SceneEntityCfg
 from agile.sim import ContactSensorCfg, SimCfg, Simulation
 from scenes import robot_sim
 from agile.sim.names import resolve_names
-from agile.tasks.locomotion.g1.velocity_history_env_cfg import G1VelocityHistoryEnvCfg
-from agile.tasks.locomotion.t1.velocity_env_cfg import T1VelocityEnvCfg
+from agile.tasks.velocity.g1.velocity_history_env_cfg import G1VelocityHistoryEnvCfg
+from agile.tasks.velocity.t1.velocity_env_cfg import T1VelocityEnvCfg
 
 GRAVITY_MPS2 = 9.81
 PHYSICS_STEPS = 4
@@ -21,7 +21,7 @@ SENSED = ["Trunk", ".*_foot_link"]
 
 
 def t1_sim(num_envs: int, **sensor_kwargs) -> Simulation:
-    return robot_sim(t1_robot_cfg("implicit"), num_envs, STEP_DT_S, sim=SimCfg(physics_dt_s=STEP_DT_S / PHYSICS_STEPS),
+    return robot_sim(t1_robot_cfg(t1_implicit_actuators()), num_envs, STEP_DT_S, sim=SimCfg(physics_dt_s=STEP_DT_S / PHYSICS_STEPS),
                      contact_sensor=ContactSensorCfg(**sensor_kwargs))
 
 

@@ -8,7 +8,7 @@ import pytest
 import torch
 import warp as wp
 
-from agile.assets.booster_t1 import t1_robot_cfg
+from agile.assets.booster_t1 import t1_delayed_dc_motor_actuators, t1_implicit_actuators, t1_robot_cfg
 from agile.rl_env import mdp
 from agile.rl_env.managers import ActionManager, SceneEntityCfg
 from fakes import FakeEnv
@@ -20,7 +20,7 @@ PHYSICS_STEPS_PER_ENV_STEP = 4
 GRAVITY_MPS2 = 9.81
 
 
-def make_env(actuators: str) -> SimpleNamespace:
+def make_env(actuators: dict) -> SimpleNamespace:
     """What event and reward terms read from an env (scene, sim, sizes), without the managers."""
     sim = robot_sim(t1_robot_cfg(actuators), NUM_ENVS, STEP_DT_S, ground_friction=0.1)
     return SimpleNamespace(sim=sim, robot=sim.scene["robot"], scene=sim.scene, num_envs=NUM_ENVS,
@@ -29,7 +29,7 @@ def make_env(actuators: str) -> SimpleNamespace:
 
 @pytest.fixture(scope="module")
 def env():
-    return make_env("implicit")
+    return make_env(t1_implicit_actuators())
 
 
 def entity(env, **names) -> SceneEntityCfg:
@@ -87,7 +87,7 @@ def test_mass_randomisation_is_per_world_in_range_and_reaches_mujoco(env):
 
 
 def test_heavier_base_in_one_world_changes_only_that_world():
-    env = make_env("implicit")
+    env = make_env(t1_implicit_actuators())
     robot, solver = env.robot, env.sim.solver
     mujoco_mass0 = solver.mjw_model.body_mass.numpy().copy()
     only_world_1 = torch.tensor([False, True, False])
@@ -152,7 +152,7 @@ def test_implicit_gains_reach_mujoco_actuators(env):
 
 
 def test_explicit_actuator_gains_follow_the_model():
-    env = make_env("delayed_dc_motor")
+    env = make_env(t1_delayed_dc_motor_actuators())
     robot = env.robot
     mdp.randomize_actuator_gains(env, all_envs(env), stiffness_distribution_params=(0.9, 1.1),
                                  damping_distribution_params=(0.8, 2.0), asset_cfg=entity(env))
@@ -183,7 +183,7 @@ def test_joint_friction_and_armature_reach_mujoco_dofs(env):
 # -- external wrench ---------------------------------------------------------------------------------
 
 def test_external_force_pushes_a_floating_robot_and_ends_with_the_episode():
-    env = make_env("implicit")
+    env = make_env(t1_implicit_actuators())
     robot = env.robot
     pose = robot.root_pose_w.clone()
     pose[:, 2] = 5.0  # far above the ground: only gravity and the pushed wrench act
@@ -214,7 +214,7 @@ def test_external_force_pushes_a_floating_robot_and_ends_with_the_episode():
 # -- body_acc_l2 -------------------------------------------------------------------------------------
 
 def test_body_acc_l2_is_zero_without_velocity_change_and_g_squared_per_body_in_free_fall():
-    env = make_env("implicit")
+    env = make_env(t1_implicit_actuators())
     robot = env.robot
     pose = robot.root_pose_w.clone()
     pose[:, 2] = 5.0

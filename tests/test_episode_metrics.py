@@ -18,7 +18,7 @@ import agile.tasks
 from agile.rl_env import mdp
 from agile.rl_env.fallen_states import FallenStateDatasetCfg
 from agile.rl_env.managers import MetricsManager, MetricTerm, merge_episode_metrics
-from agile.tasks.locomotion.velocity_common import BASE_HEIGHT_SENSOR
+from agile.tasks.velocity.velocity_common import BASE_HEIGHT_SENSOR
 from agile.utils.config import ConfigError, configclass
 
 TASK = "StandUp-T1-v0"

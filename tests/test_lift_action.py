@@ -11,7 +11,7 @@ from fakes import FakeEnv
 from agile.assets.booster_t1 import t1_robot_cfg
 from agile.rl_env import ManagerBasedRLEnv, ManagerBasedRLEnvCfg, mdp
 from agile.rl_env.managers import CurrTerm, DoneTerm, ObsGroup, ObsTerm
-from agile.rl_env.mdp.curriculums_stand_up import adaptive_lift_curriculum, terrain_levels_standing_at_timeout
+from agile.tasks.stand_up.mdp.curriculums import adaptive_lift_curriculum, terrain_levels_standing_at_timeout
 from agile.sim import HeightScannerCfg, SceneCfg, SimCfg
 from agile.sim.terrain import PyramidStairsTerrainCfg, TerrainGeneratorCfg
 from agile.utils.config import configclass

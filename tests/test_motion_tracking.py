@@ -11,10 +11,10 @@ import torch
 from fakes import FakeEnv
 
 import agile.tasks  # noqa: F401  (registers the tasks)
-from agile.assets.unitree_g1 import g1_robot_cfg
+from agile.assets.unitree_g1 import g1_beyondmimic_actuators, g1_robot_cfg
 from agile.motion import load_motion
 from agile.motion.convert import G1_CSV_JOINT_NAMES, RootAndJoints, convert_csv, write_motion_csv
-from agile.rl_env import mdp
+from agile.tasks.motion_tracking import mdp
 from agile.rl_env.managers import SceneEntityCfg
 from agile.utils.math import quat_from_euler_xyz, quat_mul, quat_rotate
 
@@ -39,7 +39,7 @@ def sine_csv(path, joint_order):
 def test_converter_remaps_joints_resamples_and_differentiates(tmp_path):
     shuffled = list(reversed(G1_CSV_JOINT_NAMES))  # a CSV whose columns are in another order
     amp, freq = sine_csv(tmp_path / "sine.csv", shuffled)
-    motion = convert_csv(tmp_path / "sine.csv", INPUT_FPS, OUTPUT_FPS, g1_robot_cfg("beyondmimic"),
+    motion = convert_csv(tmp_path / "sine.csv", INPUT_FPS, OUTPUT_FPS, g1_robot_cfg(g1_beyondmimic_actuators()),
                          csv_joint_names=shuffled)
     assert motion.fps == OUTPUT_FPS and motion.num_frames == 101  # 2 s at 50 Hz
     t = np.arange(101) / OUTPUT_FPS
@@ -59,7 +59,7 @@ def test_converter_names_the_missing_joints(tmp_path):
     names[3] = "left_knee"  # misspelt in the CSV's joint list
     sine_csv(tmp_path / "sine.csv", list(G1_CSV_JOINT_NAMES))
     with pytest.raises(ValueError, match="left_knee_joint"):
-        convert_csv(tmp_path / "sine.csv", INPUT_FPS, OUTPUT_FPS, g1_robot_cfg("beyondmimic"), csv_joint_names=names)
+        convert_csv(tmp_path / "sine.csv", INPUT_FPS, OUTPUT_FPS, g1_robot_cfg(g1_beyondmimic_actuators()), csv_joint_names=names)
 
 
 def test_shipped_motions_stand_on_the_ground():

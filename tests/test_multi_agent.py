@@ -15,8 +15,8 @@ from agile.marl.rsl_rl import AgentGroupCfg, GroupVecEnv, MultiAgentRunnerCfg
 from agile.marl.runner import MultiAgentRunner
 from agile.rl_env.rsl_rl import flatten_groups
 from agile.sim import ContactSensorCfg, HeightScannerCfg, SceneCfg
-from agile.tasks.locomotion.t1 import velocity_env_cfg as t1_task
-from agile.tasks.locomotion.t1.agents.rsl_rl_cfg import t1_velocity_ppo_runner_cfg
+from agile.tasks.velocity.t1 import velocity_env_cfg as t1_task
+from agile.tasks.velocity.t1.agents.rsl_rl_cfg import t1_velocity_ppo_runner_cfg
 from agile.tasks.multi_agent.multi_rate_velocity_env_cfg import t1_agent_cfg
 from agile.utils.config import ConfigError
 

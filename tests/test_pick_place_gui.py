@@ -10,7 +10,7 @@ from browser import free_port
 import agile.tasks  # noqa: F401
 from agile.gui import ActionSliders, BrowserViewer
 from agile.assets.unitree_g1_with_hands import PALM_BODY, GRASP_POINT_M
-from agile.rl_env import mdp
+from agile.tasks.pick_place import mdp
 from agile.rl_env.managers import SceneEntityCfg
 
 

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import torch
 from fakes import FakeEnv
 
-from agile.rl_env import mdp
+from agile.tasks.pick_place import mdp
 from agile.rl_env.managers import SceneEntityCfg
 
 PALM = SceneEntityCfg("robot", body_names="wrist")

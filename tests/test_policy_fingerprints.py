@@ -11,9 +11,19 @@ POLICIES = shipped_policies()
 T1 = next(p for p in POLICIES if p.file.name == "Velocity-T1-v0.pt")
 
 
+INJECTED_STEPS = 10
+"""The checks below inject a change and look for the step it shows at (0 to 2): the first steps of the rollout do."""
+
+
 @pytest.fixture(scope="module")
 def t1_fingerprint():
-    return load(T1.fingerprint_file)
+    """The T1 fingerprint's first `INJECTED_STEPS` steps (and the observations after the reset)."""
+    return {name: values[:INJECTED_STEPS + 1] for name, values in load(T1.fingerprint_file).items()}
+
+
+def injected(*overrides: str) -> dict:
+    """The T1 rollout's first `INJECTED_STEPS` steps with `overrides` applied after the policy's own."""
+    return record(T1, num_steps=INJECTED_STEPS, extra_overrides=overrides)
 
 
 @pytest.mark.parametrize("policy", POLICIES, ids=[p.file.name for p in POLICIES])
@@ -37,20 +47,18 @@ def test_every_fingerprint_belongs_to_a_shipped_policy():
 def test_the_check_fails_on_the_action_clamp_that_made_the_t1_regression(t1_fingerprint):
     """The regression of 1e8df33: the last-action observation clamped where the policy was trained without it
     (injected as a narrower clip_actions, 0.5, inside the T1 policy's outputs)."""
-    divergence = first_divergence(t1_fingerprint, record(T1, extra_overrides=("env.clip_actions=0.5",)))
+    divergence = first_divergence(t1_fingerprint, injected("env.clip_actions=0.5"))
     assert divergence is not None and divergence.startswith("step ")
     assert divergence.split(": ")[1].startswith(("obs/critic/actions", "obs/policy/actions")), divergence
 
 
 def test_the_check_names_a_reweighted_reward_term(t1_fingerprint):
-    divergence = first_divergence(t1_fingerprint,
-                                  record(T1, extra_overrides=("env.rewards.track_lin_vel_xy_exp.weight=0.5",)))
+    divergence = first_divergence(t1_fingerprint, injected("env.rewards.track_lin_vel_xy_exp.weight=0.5"))
     assert divergence is not None and divergence.startswith("step 1: reward/track_lin_vel_xy_exp"), divergence
 
 
 def test_the_check_names_a_rescaled_observation(t1_fingerprint):
-    divergence = first_divergence(t1_fingerprint,
-                                  record(T1, extra_overrides=("env.observations.policy.base_ang_vel.scale=0.3",)))
+    divergence = first_divergence(t1_fingerprint, injected("env.observations.policy.base_ang_vel.scale=0.3"))
     assert divergence is not None and divergence.startswith("step 0: obs/policy/base_ang_vel"), divergence
 
 

@@ -7,7 +7,7 @@ import pytest
 import torch
 import warp as wp
 
-from agile.assets.booster_t1 import t1_robot_cfg
+from agile.assets.booster_t1 import t1_implicit_actuators, t1_robot_cfg
 from agile.rl_env import ManagerBasedRLEnv, ManagerBasedRLEnvCfg, mdp
 from agile.rl_env.managers import DoneTerm, EventTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg
 from agile.sim import BoxShapeCfg, ContactSensorCfg, RigidObjectCfg, SceneCfg, SimCfg
@@ -19,7 +19,7 @@ ROBOT_A, ROBOT_B = SceneEntityCfg("robot_a"), SceneEntityCfg("robot_b")
 
 
 def hanging_t1(y_m: float):
-    cfg = t1_robot_cfg("implicit")
+    cfg = t1_robot_cfg(t1_implicit_actuators())
     return dataclasses.replace(cfg, fixed_base=True, init_pos_m=(0.0, y_m, 1.2))
 
 

@@ -8,7 +8,7 @@ import pytest
 import torch
 from fakes import FakeEnv
 
-from agile.rl_env import mdp
+from agile.tasks.height_tracking import mdp
 from agile.rl_env.managers import CurrTerm, RewTerm, SceneEntityCfg
 
 FEET = SceneEntityCfg("robot", body_names=["foot_l", "foot_r"], preserve_order=True)

@@ -8,7 +8,8 @@ import torch
 from fakes import FakeEnv
 
 from agile.rl_env.managers import DoneTerm, SceneEntityCfg, TerminationManager
-from agile.rl_env.mdp import rewards_stand_up as stand_up
+from agile.rl_env.mdp.rewards import is_terminated_term
+from agile.tasks.stand_up.mdp import rewards as stand_up
 from agile.rl_env.mdp.terminations import no_height_progress
 from agile.utils.config import ConfigError, configclass
 from agile.utils.math import quat_from_euler_xyz
@@ -115,9 +116,9 @@ def test_is_terminated_term_reads_the_named_terms():
     env = FakeEnv(num_envs=4)
     env.termination_manager = TerminationManager(_Terminations(), env)
     env.termination_manager.compute()
-    assert stand_up.is_terminated_term(env, "stuck").tolist() == [0.0, 0.0, 1.0, 0.0]
-    assert stand_up.is_terminated_term(env, ["fell", "stuck"]).tolist() == [0.0, 1.0, 1.0, 0.0]
-    assert stand_up.is_terminated_term(env, ["time_out"]).tolist() == [1.0, 0.0, 0.0, 0.0]
+    assert is_terminated_term(env, "stuck").tolist() == [0.0, 0.0, 1.0, 0.0]
+    assert is_terminated_term(env, ["fell", "stuck"]).tolist() == [0.0, 1.0, 1.0, 0.0]
+    assert is_terminated_term(env, ["time_out"]).tolist() == [1.0, 0.0, 0.0, 0.0]
 
 
 def test_is_terminated_term_rejects_unknown_names():
@@ -125,9 +126,9 @@ def test_is_terminated_term_rejects_unknown_names():
     env.termination_manager = TerminationManager(_Terminations(), env)
     env.termination_manager.compute()
     with pytest.raises(ValueError, match=r"unknown \['falen'\].*\['time_out', 'fell', 'stuck'\]"):
-        stand_up.is_terminated_term(env, ["fell", "falen"])
+        is_terminated_term(env, ["fell", "falen"])
     with pytest.raises(ValueError, match="unknown"):
-        stand_up.is_terminated_term(env, [])
+        is_terminated_term(env, [])
 
 
 # -- no_height_progress ------------------------------------------------------------------------------------

@@ -7,11 +7,12 @@ import pytest
 import torch
 from fakes import FakeEnv
 
-from agile.rl_env import ManagerBasedRLEnv, mdp
+from agile.rl_env import ManagerBasedRLEnv
+from agile.tasks.velocity import mdp
 from agile.rl_env.managers import CurrTerm, EventTerm, SceneEntityCfg
 from agile.rl_env.mdp.symmetry import feet_scan_mirror
 from agile.sim.height_scanner import grid_pattern
-from agile.tasks.locomotion_height.g1 import velocity_height_env_cfg as height_cfgs
+from agile.tasks.velocity_height.g1 import velocity_height_env_cfg as height_cfgs
 from agile.utils.math import quat_from_euler_xyz
 
 

@@ -41,23 +41,23 @@ T1_SOFT_JOINT_POS_LIMIT_FACTOR = 0.9
 T1_GAINS = dict(joint_names_expr=[".*"], stiffness=T1_STIFFNESS, damping=T1_DAMPING, effort_limit=T1_EFFORT_LIMIT,
                 velocity_limit=T1_VELOCITY_LIMIT, armature=T1_ARMATURE, friction=T1_FRICTION)
 
-ACTUATOR_SETS = {
-    # AGILE `T1_DELAYED_DC_CFG`: one group, delayed DC motors
-    "delayed_dc_motor": lambda: {"all": DelayedDCMotorCfg(
-        **T1_GAINS, saturation_effort=T1_SATURATION_EFFORT, min_delay=0, max_delay=T1_MAX_DELAY_PHYSICS_STEPS)},
-    # the same gains handed to the solver's implicit PD
-    "implicit": lambda: {"all": ImplicitActuatorCfg(**T1_GAINS)},
-}
+def t1_delayed_dc_motor_actuators() -> dict:
+    """AGILE `T1_DELAYED_DC_CFG`: one group, delayed DC motors."""
+    return {"all": DelayedDCMotorCfg(**T1_GAINS, saturation_effort=T1_SATURATION_EFFORT, min_delay=0,
+                                     max_delay=T1_MAX_DELAY_PHYSICS_STEPS)}
 
 
-def t1_robot_cfg(actuators: str = "delayed_dc_motor") -> ArticulationCfg:
-    """T1 with an actuator set by name (see ACTUATOR_SETS)."""
-    if actuators not in ACTUATOR_SETS:
-        raise KeyError(f"unknown T1 actuator set '{actuators}'. Sets: {sorted(ACTUATOR_SETS)}")
+def t1_implicit_actuators() -> dict:
+    """The same gains handed to the solver's implicit PD."""
+    return {"all": ImplicitActuatorCfg(**T1_GAINS)}
+
+
+def t1_robot_cfg(actuators: dict | None = None) -> ArticulationCfg:
+    """T1 with `actuators` (default `t1_delayed_dc_motor_actuators()`)."""
     return ArticulationCfg(
         model_file=asset_file("booster_t1/t1.xml"),
         init_pos_m=(0.0, 0.0, INIT_HEIGHT_M),
         init_joint_pos=dict(INIT_JOINT_POS),
-        actuators=ACTUATOR_SETS[actuators](),
+        actuators=t1_delayed_dc_motor_actuators() if actuators is None else actuators,
         soft_joint_pos_limit_factor=T1_SOFT_JOINT_POS_LIMIT_FACTOR,
     )

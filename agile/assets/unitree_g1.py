@@ -50,7 +50,7 @@ MAX_DELAY_PHYSICS_STEPS = 4  # 0-20 ms at 200 Hz
 SOFT_JOINT_POS_LIMIT_FACTOR = 0.9  # Isaac Lab's G1 configs: dof_pos_limits penalises the outer 5% of each range
 
 
-def _delayed_dc_motor_set() -> dict:
+def g1_delayed_dc_motor_actuators() -> dict:
     """AGILE `G1_29DOF_DELAYED_DC_MOTOR`: legs, feet and waist delayed 0-4 physics steps, arms undelayed."""
     def group(expr, params, saturation, max_delay):
         return DelayedDCMotorCfg(joint_names_expr=[expr], armature=ARMATURE, saturation_effort=saturation,
@@ -73,9 +73,9 @@ HEIGHT_TRACKING_LEG_SATURATION_NM = 130.0
 HEIGHT_TRACKING_JOINT_FRICTION_NM = 0.01
 
 
-def _height_tracking_set() -> dict:
+def g1_height_tracking_actuators() -> dict:
     """The delayed DC-motor set with AGILE's softer height-tracking gains (see the constants above)."""
-    groups = _delayed_dc_motor_set()
+    groups = g1_delayed_dc_motor_actuators()
     legs = groups["legs"]
     legs.stiffness = {**legs.stiffness, ".*_knee_joint": HEIGHT_TRACKING_KNEE_GAINS["stiffness"]}
     legs.damping = {**legs.damping, ".*_knee_joint": HEIGHT_TRACKING_KNEE_GAINS["damping"]}
@@ -106,7 +106,7 @@ ACTION_SCALE = {expr: action_scale(effort, ARMATURE_GAINS[expr][0])
 """AGILE `G1_29DOF_ACTION_SCALE`: 0.25·effort/kp per joint group."""
 
 
-def _armature_set() -> dict:
+def g1_armature_actuators() -> dict:
     """AGILE `G1_29DOF` (FEB26): armature-derived gains; legs and feet delayed implicit PD (0-4 physics
     steps), waist and arms implicit PD."""
     def group(cls, exprs, **extra):
@@ -124,8 +124,8 @@ def _armature_set() -> dict:
             "waist_arms": group(ImplicitActuatorCfg, waist_and_arms)}
 
 
-def _beyondmimic_set() -> dict:
-    """AGILE `G1_29DOF_BeyondMimic` (motion tracking): the armature-derived gains of `_armature_set` on the
+def g1_beyondmimic_actuators() -> dict:
+    """AGILE `G1_29DOF_BeyondMimic` (motion tracking): the armature-derived gains of `g1_armature_actuators` on the
     solver's implicit PD for every joint, with no delay (AGILE sets min_delay = max_delay = 0)."""
     groups = ("hip_pitch_yaw", "hip_roll_knee", "ankles", "waist_roll_pitch", "waist_yaw", "arms", "wrists")
     return {group: ImplicitActuatorCfg(joint_names_expr=[expr], stiffness=ARMATURE_GAINS[expr][0],
@@ -134,7 +134,7 @@ def _beyondmimic_set() -> dict:
             for group, (expr, (armature, effort, velocity)) in zip(groups, ARMATURE_BY_GROUP.items(), strict=True)}
 
 
-def _implicit_set() -> dict:
+def g1_implicit_actuators() -> dict:
     """The DC-motor gains handed to the solver's implicit PD."""
     return {"legs": ImplicitActuatorCfg(joint_names_expr=[LEG_JOINTS], armature=ARMATURE, **LEGS),
             "feet": ImplicitActuatorCfg(joint_names_expr=[FEET_JOINTS], armature=ARMATURE, **FEET),
@@ -142,21 +142,15 @@ def _implicit_set() -> dict:
             "arms": ImplicitActuatorCfg(joint_names_expr=[ARM_JOINTS], armature=ARMATURE, **ARMS)}
 
 
-ACTUATOR_SETS = {"delayed_dc_motor": _delayed_dc_motor_set, "armature_delayed_implicit": _armature_set,
-                 "implicit": _implicit_set, "height_tracking": _height_tracking_set,
-                 "beyondmimic": _beyondmimic_set}
-
-
-def g1_robot_cfg(actuators: str = "delayed_dc_motor") -> ArticulationCfg:
-    """G1 29-DoF with an actuator set by name (see ACTUATOR_SETS); collider geoms switched on (see ArticulationCfg)."""
-    if actuators not in ACTUATOR_SETS:
-        raise KeyError(f"unknown G1 actuator set '{actuators}'. Sets: {sorted(ACTUATOR_SETS)}")
+def g1_robot_cfg(actuators: dict | None = None) -> ArticulationCfg:
+    """G1 29-DoF with `actuators` (the groups of one of the `g1_*_actuators()` above; default the delayed DC motors of
+    `g1_delayed_dc_motor_actuators()`); collider geoms switched on (see ArticulationCfg)."""
     return ArticulationCfg(
         model_file=asset_file("unitree_g1/g1_mjx.xml"),
         init_pos_m=(0.0, 0.0, INIT_HEIGHT_M),
         init_joint_pos=dict(INIT_JOINT_POS),
         enable_all_colliders=True,
         mjcf_collider_classes=("collision", "foot_box", "foot_capsule"),
-        actuators=ACTUATOR_SETS[actuators](),
+        actuators=g1_delayed_dc_motor_actuators() if actuators is None else actuators,
         soft_joint_pos_limit_factor=SOFT_JOINT_POS_LIMIT_FACTOR,
     )

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from agile.actuators import ImplicitActuatorCfg
 from agile.assets.files import asset_file
-from agile.assets.unitree_g1 import ACTUATOR_SETS, INIT_HEIGHT_M, INIT_JOINT_POS, SOFT_JOINT_POS_LIMIT_FACTOR
+from agile.assets.unitree_g1 import (INIT_HEIGHT_M, INIT_JOINT_POS, SOFT_JOINT_POS_LIMIT_FACTOR,
+                                    g1_armature_actuators)
 from agile.sim import ArticulationCfg
 
 RIGHT_ARM_JOINTS = ["right_shoulder_.*_joint", "right_elbow_joint", "right_wrist_.*_joint"]
@@ -34,7 +35,7 @@ HAND_GAINS = dict(stiffness=4.0, damping=0.2, effort_limit=2.45, velocity_limit=
 
 def g1_with_hands_robot_cfg() -> ArticulationCfg:
     """The G1 with hands standing at the G1's default pose, hands open."""
-    actuators = ACTUATOR_SETS["armature_delayed_implicit"]()
+    actuators = g1_armature_actuators()
     actuators["hands"] = ImplicitActuatorCfg(joint_names_expr=[HAND_JOINTS], **HAND_GAINS)
     return ArticulationCfg(
         model_file=asset_file("unitree_g1/g1_with_hands.xml"),

@@ -125,8 +125,10 @@ def record(policy: ShippedPolicy, num_envs: int = NUM_ENVS, num_steps: int = NUM
                 for _ in range(num_steps):
                     actions = act(obs)
                     obs, reward, _, _, _ = env.step(actions)
-                    row = {"actions": actions, "reward": reward}
-                    row.update({f"reward/{n}": v for n, v in env.reward_manager.step_reward.items()})
+                    # copies: on the CPU the env returns, and its reward manager keeps, one buffer each that the
+                    # next step overwrites (a row holding them would end with the last step's values in every step)
+                    row = {"actions": actions.clone(), "reward": reward.clone()}
+                    row.update({f"reward/{n}": v.clone() for n, v in env.reward_manager.step_reward.items()})
                     row.update({f"termination/{n}": v.float()
                                 for n, v in env.termination_manager.term_dones.items()})
                     steps.append({**row, **_observation_summary(obs, term_dims)})

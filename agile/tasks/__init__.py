@@ -8,11 +8,11 @@ import gymnasium as gym
 import yaml
 
 from agile.tasks import debug  # noqa: F401  (registration side effect)
-from agile.tasks.locomotion import g1, t1  # noqa: F401  (registration side effect)
-from agile.tasks.locomotion_height import g1 as height_g1  # noqa: F401  (registration side effect)
+from agile.tasks.velocity import g1, t1  # noqa: F401  (registration side effect)
+from agile.tasks.velocity_height import g1 as height_g1  # noqa: F401  (registration side effect)
 from agile.tasks.stand_up import t1 as stand_up_t1  # noqa: F401  (registration side effect)
-from agile.tasks.stand_up import g1 as stand_up_g1  # noqa: F401  (registration side effect)
-from agile.tasks.tracking import g1 as tracking_g1  # noqa: F401  (registration side effect)
+from agile.tasks.height_tracking import g1 as height_tracking_g1  # noqa: F401  (registration side effect)
+from agile.tasks.motion_tracking import g1 as tracking_g1  # noqa: F401  (registration side effect)
 from agile.tasks import multi_agent  # noqa: F401  (registration side effect)
 from agile.tasks.pick_place import g1 as pick_place_g1  # noqa: F401  (registration side effect)
 from agile.utils.config import load_entry_point

@@ -1,4 +1,7 @@
-"""The shared term library: import as `from agile.rl_env import mdp` and use `mdp.<term>` in task files."""
+"""The generic term library, one module per kind: import as `from agile.rl_env import mdp` and use `mdp.<term>`.
+
+Terms that one task family alone uses live with the family, in `agile/tasks/<family>/mdp/`, whose package re-exports
+this library too: a task file imports its family's `mdp` and finds every term it can use there."""
 
 from agile.rl_env.mdp.actions import *  # noqa: F401,F403
 from agile.rl_env.mdp.commands import *  # noqa: F401,F403
@@ -6,14 +9,6 @@ from agile.rl_env.mdp.curriculums import *  # noqa: F401,F403
 from agile.rl_env.mdp.events import *  # noqa: F401,F403
 from agile.rl_env.mdp.observations import *  # noqa: F401,F403
 from agile.rl_env.mdp.rewards import *  # noqa: F401,F403
-from agile.rl_env.mdp.rewards_velocity_height import *  # noqa: F401,F403
 from agile.rl_env.mdp.terminations import *  # noqa: F401,F403
 from agile.rl_env.fallen_states.reset import *  # noqa: F401,F403
-from agile.rl_env.mdp.rewards_stand_up import *  # noqa: F401,F403
-from agile.rl_env.mdp.curriculums_stand_up import *  # noqa: F401,F403
-from agile.rl_env.mdp.rewards_height_tracking import *  # noqa: F401,F403
-from agile.rl_env.mdp.terminations_height_tracking import *  # noqa: F401,F403
-from agile.rl_env.mdp.curriculums_height_tracking import *  # noqa: F401,F403
-from agile.rl_env.mdp.motion_tracking import *  # noqa: F401,F403
-from agile.rl_env.mdp.pick_place import *  # noqa: F401,F403
 from agile.rl_env.mdp.metrics import *  # noqa: F401,F403

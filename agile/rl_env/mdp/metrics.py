@@ -6,7 +6,8 @@ from __future__ import annotations
 import torch
 
 from agile.rl_env.managers import SceneEntityCfg
-from agile.rl_env.mdp.observations import ROBOT, base_height_above_ground
+from agile.rl_env.managers import ROBOT
+from agile.rl_env.mdp.observations import base_height_above_ground
 
 __all__ = ["base_height_at_end", "ended_by_time_out", "not_standing_at_time_out", "standing_at_time_out"]
 

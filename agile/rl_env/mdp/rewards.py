@@ -8,14 +8,15 @@ from agile.rl_env.managers import ROBOT, SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
 from agile.utils.math import quat_conjugate, quat_mul, quat_rotate_inverse, wrap_to_pi, yaw_from_quat
 
-__all__ = ["action_rate_l2", "action_rate_rate_l2", "ang_vel_xy_l2", "applied_torque_limits", "base_height_exp",
-           "body_acc_l2", "body_projected_gravity", "equal_foot_force", "feet_air_time",
-           "feet_air_time_positive_biped", "feet_distance_from_ref", "feet_roll_l2", "feet_slip", "feet_stumble",
-           "feet_yaw_diff_l2", "feet_yaw_mean_vs_base", "filtered_contact", "flat_body_orientation_exp",
-           "flat_orientation_l2", "illegal_contact", "impact_velocity_l1", "is_alive", "is_terminated",
-           "joint_acc_l2", "joint_deviation_l1", "joint_pos_limits", "joint_torques_l2", "joint_vel_l2",
-           "joint_vel_limits", "jumping", "lin_vel_z_l2", "object_body_distance_exp", "object_is_lifted",
-           "track_ang_vel_z_exp", "track_lin_vel_xy_exp", "undesired_contacts"]
+__all__ = ["action_l2", "action_rate_l2", "action_rate_rate_l2", "ang_vel_xy_l2", "applied_torque_limits",
+           "base_height_exp", "body_acc_l2", "body_ang_vel_l2", "body_projected_gravity", "equal_foot_force",
+           "feet_air_time", "feet_air_time_positive_biped", "feet_distance_from_ref", "feet_roll_l2", "feet_slip",
+           "feet_stumble", "feet_yaw_diff_l2", "feet_yaw_mean_vs_base", "filtered_contact",
+           "flat_body_orientation_exp", "flat_orientation_l2", "illegal_contact", "impact_velocity_l1", "is_alive",
+           "is_terminated", "is_terminated_term", "joint_acc_l2", "joint_deviation_l1", "joint_deviation_l2",
+           "joint_pos_limits", "joint_torques_l2", "joint_vel_l2", "joint_vel_limits", "jumping", "lin_vel_z_l2",
+           "object_body_distance_exp", "object_is_lifted", "track_ang_vel_z_exp", "track_lin_vel_xy_exp",
+           "undesired_contacts"]
 
 
 
@@ -114,6 +115,13 @@ def joint_deviation_l1(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
     robot = env.scene[asset_cfg.name]
     ids = asset_cfg.joint_ids
     return torch.sum(torch.abs(robot.joint_pos[:, ids] - robot.default_joint_pos[:, ids]), dim=1)
+
+
+def joint_deviation_l2(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
+    """Σ (q - q_default)² over the selected joints [rad²]."""
+    robot = env.scene[asset_cfg.name]
+    ids = asset_cfg.joint_ids
+    return torch.sum(torch.square(robot.joint_pos[:, ids] - robot.default_joint_pos[:, ids]), dim=1)
 
 
 def joint_pos_limits(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
@@ -317,3 +325,25 @@ def filtered_contact(env, sensor_cfg: SceneEntityCfg, force_threshold_n: float =
         raise ValueError(f"filtered_contact: contact sensor '{sensor_cfg.name}' has no filter_entity")
     force_n = torch.norm(sensor.force_matrix_w[:, sensor_cfg.body_ids].sum(dim=2), dim=-1)
     return (force_n > force_threshold_n).any(dim=1).float()
+
+
+def body_ang_vel_l2(env, asset_cfg: SceneEntityCfg) -> torch.Tensor:
+    """|angular velocity|² of the selected bodies, summed [rad²/s²]."""
+    robot = env.scene[asset_cfg.name]
+    return torch.sum(torch.square(robot.body_vel_w[:, asset_cfg.body_ids, 3:6]), dim=(1, 2))
+
+
+def action_l2(env) -> torch.Tensor:
+    return torch.sum(torch.square(env.action_manager.action), dim=-1)
+
+
+def is_terminated_term(env, term_keys: list[str] | str) -> torch.Tensor:
+    """(N,) 1.0 where any of the termination terms `term_keys` ended the episode this step, else 0 (AGILE: a
+    penalty for particular failures, e.g. `no_height_progress`, rather than for every termination)."""
+    names = [term_keys] if isinstance(term_keys, str) else list(term_keys)
+    term_dones = env.termination_manager.term_dones
+    unknown = [name for name in names if name not in term_dones]
+    if unknown or not names:
+        raise ValueError(f"is_terminated_term: term_keys must name termination terms, got unknown {unknown} "
+                         f"(of {names}); the termination terms are {list(term_dones)}")
+    return torch.stack([term_dones[name] for name in names]).any(dim=0).float()

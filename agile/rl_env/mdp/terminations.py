@@ -10,7 +10,7 @@ from agile.rl_env.managers import ManagerTermBase, ROBOT, SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
 from agile.rl_env.mdp.rewards import body_projected_gravity
 
-__all__ = ["bad_orientation", "illegal_ground_contact", "link_distance", "no_height_progress",
+__all__ = ["bad_orientation", "illegal_ground_contact", "link_distance", "no_height_progress", "out_of_bound",
            "root_height_below_minimum", "time_out"]
 
 
@@ -99,3 +99,9 @@ class no_height_progress(ManagerTermBase):  # noqa: N801 (AGILE's name)
         window_over = env.episode_length_buf >= window_steps
         no_progress = self.max_height_m - self.start_height_m < min_height_gain_m
         return window_over & no_progress & (height_m < standing_height_m)
+
+
+def out_of_bound(env, z_range_m: tuple[float, float], asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
+    """The entity's root height above its env origin is outside `z_range_m`."""
+    z = env.scene[asset_cfg.name].root_pos_env[:, 2]
+    return (z < z_range_m[0]) | (z > z_range_m[1])

@@ -14,12 +14,12 @@ import dataclasses
 from agile.assets.booster_t1 import t1_robot_cfg
 from agile.assets.unitree_g1 import g1_robot_cfg
 from agile.marl import AgentCfg, MultiAgentEnvCfg
-from agile.rl_env import mdp
 from agile.rl_env.managers import RewTerm, SceneEntityCfg
 from agile.sim import ContactSensorCfg, HeightScannerCfg, SceneCfg
-from agile.tasks.locomotion.g1 import velocity_history_env_cfg as g1_task
-from agile.tasks.locomotion.t1 import velocity_env_cfg as t1_task
-from agile.tasks.locomotion.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, velocity_events_cfg,
+from agile.tasks.velocity import mdp
+from agile.tasks.velocity.g1 import velocity_history_env_cfg as g1_task
+from agile.tasks.velocity.t1 import velocity_env_cfg as t1_task
+from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, velocity_events_cfg,
                                                    velocity_sim_cfg, velocity_terminations_cfg,
                                                    without_randomisation)
 from agile.utils.config import configclass

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from agile.rl_env import mdp
 from agile.rl_env.fallen_states import FallenStateDatasetCfg
 from agile.rl_env.managers import EventTerm
-from agile.tasks.locomotion.velocity_common import VelocityEventsCfg, velocity_events_cfg
+from agile.tasks.stand_up import mdp
+from agile.tasks.velocity.velocity_common import VelocityEventsCfg, velocity_events_cfg
 
 
 def stand_up_events_cfg(base_body: str, base_mass_add_kg: tuple[float, float],

@@ -1,8 +1,8 @@
 """Each robot trained by its own PPO (NORMAL groups), with its velocity task's settings."""
 
 from agile.marl.rsl_rl import AgentGroupCfg, MultiAgentRunnerCfg
-from agile.tasks.locomotion.g1.agents.rsl_rl_cfg import g1_velocity_history_ppo_runner_cfg
-from agile.tasks.locomotion.t1.agents.rsl_rl_cfg import t1_velocity_ppo_runner_cfg
+from agile.tasks.velocity.g1.agents.rsl_rl_cfg import g1_velocity_history_ppo_runner_cfg
+from agile.tasks.velocity.t1.agents.rsl_rl_cfg import t1_velocity_ppo_runner_cfg
 
 
 def multi_rate_velocity_runner_cfg() -> MultiAgentRunnerCfg:

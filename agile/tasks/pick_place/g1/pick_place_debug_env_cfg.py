@@ -12,9 +12,10 @@ import dataclasses
 import math
 
 from agile.assets.unitree_g1_with_hands import GRASP_POINT_M, RIGHT_ARM_JOINTS, RIGHT_HAND_JOINTS
-from agile.rl_env import ManagerBasedRLEnvCfg, mdp
+from agile.rl_env import ManagerBasedRLEnvCfg
 from agile.rl_env.managers import DoneTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg
 from agile.sim.scene_cfg import SceneCfg
+from agile.tasks.pick_place import mdp
 from agile.tasks.pick_place.g1.pick_place_env_cfg import (LIFTED_HEIGHT_M, PALM, pick_place_scene_cfg,
                                                           pick_place_sim_cfg)
 from agile.utils.config import configclass

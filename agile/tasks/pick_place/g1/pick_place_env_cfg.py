@@ -15,11 +15,12 @@ from __future__ import annotations
 from agile.assets.tabletop import CUBE_START_POS_M, cube_cfg, table_cfg
 from agile.assets.unitree_g1_with_hands import (PALM_BODY, GRASP_POINT_M, UPPER_BODY_JOINTS,
                                                 g1_with_hands_robot_cfg)
-from agile.rl_env import ManagerBasedRLEnvCfg, mdp
+from agile.rl_env import ManagerBasedRLEnvCfg
 from agile.rl_env.managers import CurrTerm, DoneTerm, EventTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg, Unoise
 from agile.sim.scene_cfg import SceneCfg
 from agile.sim.sim_cfg import SimCfg, SolverCfg
 from agile.utils.config import configclass
+from agile.tasks.pick_place import mdp
 
 REFERENCE = "reference"
 UPPER_BODY = SceneEntityCfg("robot", joint_names=UPPER_BODY_JOINTS)

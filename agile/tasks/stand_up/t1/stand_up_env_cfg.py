@@ -10,11 +10,12 @@ terms report the share of episodes that end by time-out standing (eval.py, docs/
 from __future__ import annotations
 
 from agile.assets.booster_t1 import ARM_JOINTS, HEAD_JOINTS, WAIST_JOINTS, t1_robot_cfg
-from agile.rl_env import ManagerBasedRLEnvCfg, mdp
+from agile.rl_env import ManagerBasedRLEnvCfg
 from agile.rl_env.managers import CurrTerm, DoneTerm, MetricTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg
 from agile.rl_env.managers import UniformNoiseCfg as Unoise
 from agile.sim.terrain import STAND_UP_ROUGH_TERRAIN_CFG
-from agile.tasks.locomotion.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, velocity_scene_cfg,
+from agile.tasks.stand_up import mdp
+from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, velocity_scene_cfg,
                                                    velocity_sim_cfg)
 from agile.tasks.stand_up.stand_up_common import stand_up_events_cfg
 from agile.utils.config import configclass

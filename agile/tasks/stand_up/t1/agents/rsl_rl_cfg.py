@@ -1,7 +1,7 @@
 """AGILE `T1StandUpPpoRunnerCfg`: the velocity runner with 100k iterations, entropy 0.0025 and gamma 0.995."""
 
 from agile.rl_env.rsl_rl import PpoRunnerCfg
-from agile.tasks.locomotion.velocity_ppo_cfg import velocity_ppo_runner_cfg
+from agile.tasks.velocity.velocity_ppo_cfg import velocity_ppo_runner_cfg
 
 
 def t1_stand_up_ppo_runner_cfg() -> PpoRunnerCfg:

@@ -1,1 +1,0 @@
-"""Velocity and base-height tasks (AGILE `locomotion_height`)."""

@@ -1,0 +1,1 @@
+"""Velocity-Height tasks: walk at a commanded velocity and base height (AGILE `locomotion_height`)."""
