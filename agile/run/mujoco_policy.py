@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from agile.run import common as cli
+from agile.utils.output import quiet_python_output
 
 if TYPE_CHECKING:
     from agile.run.sim2mujoco import Robot
@@ -143,6 +144,7 @@ class DescriptorPolicy:
         self.action_terms = descriptor["actions"]
         self.clip_actions = descriptor.get("clip_actions")  # older descriptors: none
         self.action_dim = sum(len(a["joint_names"]) for a in self.action_terms)
+        self.term_joint_ids = [[robot.index[n] for n in term["joint_names"]] for term in self.action_terms]
         self.reset()
 
     def reset(self) -> None:
@@ -156,8 +158,7 @@ class DescriptorPolicy:
             action = np.clip(action, -self.clip_actions, self.clip_actions)
         self.last_action = action
         start = 0
-        for term in self.action_terms:
-            ids = [self.robot.index[n] for n in term["joint_names"]]
+        for term, ids in zip(self.action_terms, self.term_joint_ids):
             target = action[start:start + len(ids)] * np.array(term["scale"]) + np.array(term["offset"])
             start += len(ids)
             if "clip" in term:
@@ -210,8 +211,6 @@ class BundlePolicy:
         for name in ("joint_pos", "joint_vel"):
             if name in self.inputs and self.inputs[name]["element_names"][-1] != robot.d["joint_names"]:
                 raise ValueError(f"bundle input {name}: its joints are not the robot's, in the robot's order")
-        from agile.utils.output import quiet_python_output
-
         with quiet_python_output():  # LEAPP's runtime warns on every machine without CUDA
             self.manager = InferenceManager(path)
 
@@ -220,11 +219,12 @@ class BundlePolicy:
 
     def raw_state(self, data, command: np.ndarray) -> dict:
         r = self.robot
-        values = {"joint_pos": data.qpos[r.qpos_adr], "joint_vel": data.qvel[r.dof_adr],
-                  "root_quat_w": data.qpos[self.QUAT_XYZW], "root_lin_vel_b": r.root_lin_vel_b(data),
-                  "root_ang_vel_b": data.qvel[3:6], "command": command}
-        # torch tensors: LEAPP's reset() zeroes its input buffers in place, which numpy arrays would have replaced
-        return {f"{self.node}/{name}": self.torch.from_numpy(np.asarray(values[name], dtype=np.float32)[None])
+        read = {"joint_pos": lambda: data.qpos[r.qpos_adr], "joint_vel": lambda: data.qvel[r.dof_adr],
+                "root_quat_w": lambda: data.qpos[self.QUAT_XYZW], "root_lin_vel_b": lambda: r.root_lin_vel_b(data),
+                "root_ang_vel_b": lambda: data.qvel[3:6], "command": lambda: command}
+        # only what the bundle reads; torch tensors: LEAPP's reset() zeroes its input buffers in place, which numpy
+        # arrays would have replaced
+        return {f"{self.node}/{name}": self.torch.from_numpy(np.asarray(read[name](), dtype=np.float32)[None])
                 for name in self.inputs}
 
     def __call__(self, data, command: np.ndarray) -> None:

@@ -235,7 +235,9 @@ def main(argv=None) -> None:
     parser.add_argument("--video", default=None, metavar="PATH.mp4",
                         help="render the rollout headless into an mp4 (camera following the robot)")
     args = cli.parse(parser, argv)
-    if (args.bundle is None) == (args.io is None or args.policy is None) or (args.bundle and (args.io or args.policy)):
+    by_bundle = args.bundle is not None and args.io is None and args.policy is None
+    by_descriptor = args.bundle is None and args.io is not None and args.policy is not None
+    if not (by_bundle or by_descriptor):
         cli.fail("give either --bundle, or --io and --policy")
     if args.bundle:
         descriptor = bundle_descriptor(read_bundle(args.bundle))

@@ -107,7 +107,7 @@ class DeployGraph(torch.nn.Module):
     def initial_state(self) -> dict[str, torch.Tensor]:
         """The state at the start of an episode: zero last action, histories to be filled, zero hidden state."""
         state = {"last_action": torch.zeros(1, len(self.target_joint_names))}
-        for i, term in enumerate(self.terms):
+        for term in self.terms:
             if term["history_length"] > 0:
                 state[f"{term['name']}_history"] = torch.zeros(1, term["history_length"], term["dim"])
         if any(t["history_length"] > 0 for t in self.terms):
