@@ -54,6 +54,22 @@ def test_wrong_type_is_rejected_with_the_field_name():
         apply_overrides({"env": Outer()}, ["count=3"])
 
 
+def test_fields_keep_their_written_order_or_the_class_is_refused():
+    # annotated fields become the dataclass's first fields; a class whose written order that would change is an
+    # error (a group's term order is the observation layout, an events class's order the order of its draws)
+    @configclass
+    class Annotated:
+        b: int = 2
+        a: int = 1
+
+    assert list(Annotated.__dataclass_fields__) == ["b", "a"]
+    with pytest.raises(TypeError, match="field 'b' has a type annotation but comes after 'a'"):
+        @configclass
+        class Mixed:
+            a = 1
+            b: int = 2
+
+
 def test_parse_value():
     assert parse_value("1e-3") == 1e-3
     assert parse_value("[1, 2]") == [1, 2]

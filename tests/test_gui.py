@@ -232,6 +232,9 @@ def test_ctrl_c_ends_the_play_loop_between_steps_and_a_second_one_interrupts():
 
     from agile.run.play import CtrlC
 
+    original = signal.getsignal(signal.SIGINT)
+    # a test worker may run with SIGINT ignored, where CtrlC rightly installs nothing: test it in a normal process
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     before = signal.getsignal(signal.SIGINT)
     ctrl_c = CtrlC()
     try:
@@ -242,4 +245,6 @@ def test_ctrl_c_ends_the_play_loop_between_steps_and_a_second_one_interrupts():
             os.kill(os.getpid(), signal.SIGINT)
     finally:
         ctrl_c.restore()
-    assert signal.getsignal(signal.SIGINT) is before
+        restored = signal.getsignal(signal.SIGINT)
+        signal.signal(signal.SIGINT, original)
+    assert restored is before

@@ -1,11 +1,10 @@
 """play.py --video_reference: the motion's reference drawn as a kinematic copy of the robot beside it (CPU)."""
 
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import torch
+from commands import run_command
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -67,15 +66,13 @@ def test_play_writes_the_side_by_side_video(tmp_path):
     import imageio.v2 as imageio
 
     path = tmp_path / "play.mp4"
-    args = [sys.executable, "scripts/play.py", "--task", "MotionTracking-G1-v0", "--num_envs", "2", "--num_steps",
-            "4", "--device", "cpu", "--sinusoidal", "--video", str(path), "--video_size", "64", "48",
-            "--video_reference", "env.commands.motion.start_frame=0"]
-    result = subprocess.run(args, cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert result.returncode == 0 and path.is_file(), result.stdout + result.stderr
+    args = ["--task", "MotionTracking-G1-v0", "--num_envs", "2", "--num_steps", "4", "--device", "cpu", "--sinusoidal",
+            "--video", str(path), "--video_size", "64", "48", "--video_reference", "env.commands.motion.start_frame=0"]
+    code, out, err = run_command("play", *args, cwd=ROOT)
+    assert code == 0 and path.is_file(), out + err
     frames = [f for f in imageio.get_reader(str(path))]
     assert len(frames) == 4 and frames[0].shape == (48, 64, 3)
     assert frames[-1].std() > 5.0  # not blank
     # without --video there is nothing to draw into
-    result = subprocess.run(args[:args.index("--video")] + ["--video_reference"], cwd=ROOT, capture_output=True,
-                            text=True, timeout=600)
-    assert result.returncode == 2 and "--video_reference" in result.stderr
+    code, out, err = run_command("play", *args[:args.index("--video")], "--video_reference", cwd=ROOT)
+    assert code == 2 and "--video_reference" in err

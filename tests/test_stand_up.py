@@ -5,13 +5,12 @@ iteration, and play.py --validate_fallen_states."""
 from __future__ import annotations
 
 import dataclasses
-import subprocess
-import sys
 import types
 from pathlib import Path
 
 import pytest
 import torch
+from commands import run_command
 
 import agile.tasks
 from agile.rl_env.fallen_states import STATE_FIELDS, FallenStateDatasetCfg, cache
@@ -192,15 +191,13 @@ def test_the_built_env_then_one_ppo_iteration(stand_up_env, tmp_path):
 
 
 def test_play_validate_fallen_states(tmp_path):  # also: the collection's progress bar, with its ETA
-    result = subprocess.run(
-        [sys.executable, "scripts/play.py", "--task", TASK, "--device", "cpu", "--num_envs", "2", "--num_steps", "110",
-         "--validate_fallen_states", "env.scene.terrain.num_rows=2",
-         f"env.events.reset_base.params.dataset.cache_dir={tmp_path}"],
-        cwd=ROOT, capture_output=True, text=True, timeout=600)
-    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
-    assert "zero actions" in result.stdout and "fallen states:" in result.stdout
-    assert "fallen states: 100%" in result.stderr and "2/2" in result.stderr  # a drop per row, then done
-    assert "episodes ended 4, by failure 0" in result.stdout  # 2 envs reset every second for 2.2 s
+    code, out, err = run_command("play", "--task", TASK, "--device", "cpu", "--num_envs", "2", "--num_steps", "110",
+                                 "--validate_fallen_states", "env.scene.terrain.num_rows=2",
+                                 f"env.events.reset_base.params.dataset.cache_dir={tmp_path}", cwd=ROOT)
+    assert code == 0, out[-2000:] + err[-2000:]
+    assert "zero actions" in out and "fallen states:" in out
+    assert "fallen states: 100%" in err and "2/2" in err  # a drop per row, then done
+    assert "episodes ended 4, by failure 0" in out  # 2 envs reset every second for 2.2 s
 
 
 def test_a_row_without_states_draws_from_the_nearest_row_with_some():

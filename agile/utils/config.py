@@ -24,6 +24,7 @@ def configclass(cls=None, **dataclass_kwargs):
 
     def wrap(cls):
         annotations = dict(cls.__dict__.get("__annotations__", {}))
+        _check_field_order(cls, annotations)
         for name, value in list(cls.__dict__.items()):
             if name.startswith("__") or name in annotations:
                 continue
@@ -42,6 +43,25 @@ def configclass(cls=None, **dataclass_kwargs):
         return dataclasses.dataclass(cls, **dataclass_kwargs)
 
     return wrap if cls is None else wrap(cls)
+
+
+def _check_field_order(cls, annotations: dict) -> None:
+    """Refuse a class whose new fields mix styles so that the dataclass would reorder them: annotated fields
+    become the first fields and unannotated ones follow, so `a = ...` then `b: T = ...` would put b before a
+    (the order of terms is an observation's layout and the order events draw their random numbers in)."""
+    inherited = {f.name for base in cls.__mro__[1:] if dataclasses.is_dataclass(base) for f in dataclasses.fields(base)}
+    unannotated = None
+    for name, value in cls.__dict__.items():
+        if name.startswith("__") or name in inherited:
+            continue
+        if name not in annotations:
+            if inspect.isfunction(value) or isinstance(value, (classmethod, staticmethod, property)):
+                continue
+            unannotated = unannotated or name
+        elif unannotated is not None:
+            raise TypeError(f"configclass {cls.__name__}: field '{name}' has a type annotation but comes after "
+                            f"'{unannotated}', which has none; the fields would be reordered (annotated first). "
+                            "Annotate every field of the class or none.")
 
 
 def _is_mutable(value) -> bool:

@@ -19,9 +19,8 @@ from agile.sim import ContactSensorCfg, HeightScannerCfg, SceneCfg
 from agile.tasks.velocity import mdp
 from agile.tasks.velocity.g1 import velocity_history_env_cfg as g1_task
 from agile.tasks.velocity.t1 import velocity_env_cfg as t1_task
-from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, velocity_events_cfg,
-                                                   velocity_sim_cfg, velocity_terminations_cfg,
-                                                   without_randomisation)
+from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, uniform_root_reset,
+                                                   velocity_events_cfg, velocity_sim_cfg, velocity_terminations_cfg)
 from agile.utils.config import configclass
 
 SPAWN_OFFSET_Y_M = 1.0
@@ -60,17 +59,16 @@ def velocity_agent_cfg(task, entity: str, decimation: int, rewards, base_body: s
     """The velocity task `task` (its module) as an agent driving `entity` every `decimation` physics steps: its
     commands, actions (arms at default), observations and terminations, `rewards`, and its events without
     randomisation, on this scene's `<entity>_contact_forces` and `<entity>_base_height` sensors."""
-    actions = task.ActionsCfg()
-    actions.random_pos = None
     events = velocity_events_cfg(base_body=base_body, base_mass_add_kg=(0.0, 0.0), base_com_range_m={},
-                                 extremity_bodies=task.FOOT_BODIES)
+                                 extremity_bodies=task.FOOT_BODIES, randomise=False,
+                                 reset_base=uniform_root_reset(xy_range_m=RESET_XY_RANGE_M))
     return AgentCfg(
         decimation=decimation,
         scene_names={"robot": entity, CONTACT_SENSOR: f"{entity}_contact_forces",
                      BASE_HEIGHT_SENSOR: f"{entity}_base_height"},
-        commands=task.CommandsCfg(), actions=actions, observations=task.ObservationsCfg(), rewards=rewards,
+        commands=task.CommandsCfg(), actions=dataclasses.replace(task.ActionsCfg(), random_pos=None), observations=task.ObservationsCfg(), rewards=rewards,
         terminations=velocity_terminations_cfg(task.BASE_HEIGHT_TARGET_M, trunk_bodies=trunk_bodies),
-        events=without_randomisation(events, RESET_XY_RANGE_M))
+        events=events)
 
 
 # -- the G1 agent: 50 Hz, Velocity-G1-History-v0's MDP

@@ -18,8 +18,9 @@ from agile.rl_env.managers import CurrTerm, DoneTerm, ObsGroup, ObsTerm, RewTerm
 from agile.rl_env.managers import UniformNoiseCfg as Unoise
 from agile.sim.terrain import STAND_UP_ROUGH_TERRAIN_G1_CFG
 from agile.tasks.height_tracking import mdp
-from agile.tasks.velocity.velocity_common import BASE_HEIGHT_SENSOR, CONTACT_SENSOR, velocity_scene_cfg, velocity_sim_cfg
-from agile.tasks.stand_up.stand_up_common import stand_up_events_cfg
+from agile.tasks.stand_up.stand_up_common import STAND_UP_PUSH_INTERVAL_S, STAND_UP_PUSH_VELOCITY, fallen_state_reset
+from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, velocity_events_cfg,
+                                                   velocity_scene_cfg, velocity_sim_cfg)
 from agile.utils.config import configclass
 
 COMMAND = "height"
@@ -37,9 +38,9 @@ SLAM_BODIES = ["pelvis", "torso_link", ".*_hip_pitch_link", ".*_hip_roll_link", 
 """Bodies that should touch the ground gently (AGILE's ground_slam list, with the feet)."""
 
 # -- scene: G1 with AGILE's softer height-tracking actuators on the stand-up terrain, every body sensed
-SCENE = velocity_scene_cfg(g1_robot_cfg(g1_height_tracking_actuators()), STAND_UP_ROUGH_TERRAIN_G1_CFG, base_body="pelvis",
-                           sensed_bodies=[".*"])
-SCENE.max_init_terrain_level = 0  # AGILE: every env starts on row 0; the curriculum moves it
+# (AGILE: every env starts on row 0; the curriculum moves it)
+SCENE = velocity_scene_cfg(g1_robot_cfg(g1_height_tracking_actuators()), STAND_UP_ROUGH_TERRAIN_G1_CFG,
+                           base_body="pelvis", sensed_bodies=[".*"], max_init_terrain_level=0)
 
 
 @configclass
@@ -206,14 +207,13 @@ class TerminationsCfg:
 def height_tracking_events_cfg():
     """G1's randomisation as AGILE's task lists it (no joint friction, armature or body-COM draws), 20 N / 10 N·m
     pushes on the torso, 5 N / 0.5 N·m on wrists and ankles, and half the episodes starting standing."""
-    events = stand_up_events_cfg(base_body="torso_link", base_mass_add_kg=(-1.0, 3.0),
-                                 base_com_range_m={"x": (-0.1, 0.1), "y": (-0.05, 0.05), "z": (-0.1, 0.1)},
-                                 extremity_bodies=[".*_wrist_yaw_link", *FOOT_BODIES], standing_ratio=0.5)
-    events.base_external_wrench.params.update(force_range=(-20.0, 20.0), torque_range=(-10.0, 10.0))
-    events.joint_friction = None
-    events.joint_armature = None
-    events.body_com = None
-    return events
+    return velocity_events_cfg(base_body="torso_link", base_mass_add_kg=(-1.0, 3.0),
+                               base_com_range_m={"x": (-0.1, 0.1), "y": (-0.05, 0.05), "z": (-0.1, 0.1)},
+                               extremity_bodies=[".*_wrist_yaw_link", *FOOT_BODIES],
+                               joint_friction_nm=None, armature_scale=None, body_com_shift_m=None,
+                               base_wrench_n_nm=(20.0, 10.0),
+                               push_interval_s=STAND_UP_PUSH_INTERVAL_S, push_velocity=STAND_UP_PUSH_VELOCITY,
+                               reset_base=fallen_state_reset(standing_ratio=0.5), joint_reset_position_scale=None)
 
 
 def _polish(reward_name: str, terminal_weight: float, delay_steps: int) -> CurrTerm:

@@ -15,9 +15,9 @@ from agile.rl_env.managers import CurrTerm, DoneTerm, MetricTerm, ObsGroup, ObsT
 from agile.rl_env.managers import UniformNoiseCfg as Unoise
 from agile.sim.terrain import STAND_UP_ROUGH_TERRAIN_CFG
 from agile.tasks.stand_up import mdp
-from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, velocity_scene_cfg,
-                                                   velocity_sim_cfg)
-from agile.tasks.stand_up.stand_up_common import stand_up_events_cfg
+from agile.tasks.stand_up.stand_up_common import STAND_UP_PUSH_INTERVAL_S, STAND_UP_PUSH_VELOCITY, fallen_state_reset
+from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, velocity_events_cfg,
+                                                   velocity_scene_cfg, velocity_sim_cfg)
 from agile.utils.config import configclass
 
 STANDING_HEIGHT_M = 0.65
@@ -34,8 +34,9 @@ ILLEGAL_CONTACT_BODIES = ["Trunk", "H1", "H2", "AL.*", "AR.*", ".*_hand_link", "
 """Bodies that should not bear weight once up (AGILE's illegal_contacts list)."""
 
 # -- scene: the robot on the stand-up terrain (8 rows of small boxes, bumps and waves), every body sensed
-SCENE = velocity_scene_cfg(t1_robot_cfg(), STAND_UP_ROUGH_TERRAIN_CFG, base_body="Trunk", sensed_bodies=[".*"])
-SCENE.max_init_terrain_level = 0  # AGILE: every env starts on row 0; the curriculum moves it
+# (AGILE: every env starts on row 0; the curriculum moves it)
+SCENE = velocity_scene_cfg(t1_robot_cfg(), STAND_UP_ROUGH_TERRAIN_CFG, base_body="Trunk", sensed_bodies=[".*"],
+                           max_init_terrain_level=0)
 
 
 @configclass
@@ -147,10 +148,12 @@ class TerminationsCfg:
 
 
 def t1_stand_up_events_cfg():
-    """T1's events: a tenth of the episodes start standing."""
-    return stand_up_events_cfg(base_body="Trunk", base_mass_add_kg=(-1.0, 3.0),
+    """The velocity tasks' randomisation, the stand-up pushes, and a tenth of the episodes starting standing."""
+    return velocity_events_cfg(base_body="Trunk", base_mass_add_kg=(-1.0, 3.0),
                                base_com_range_m={"x": (-0.15, 0.15), "y": (-0.05, 0.05), "z": (-0.15, 0.15)},
-                               extremity_bodies=["left_hand_link", "right_hand_link", *FOOT_BODIES], standing_ratio=0.1)
+                               extremity_bodies=["left_hand_link", "right_hand_link", *FOOT_BODIES],
+                               push_interval_s=STAND_UP_PUSH_INTERVAL_S, push_velocity=STAND_UP_PUSH_VELOCITY,
+                               reset_base=fallen_state_reset(standing_ratio=0.1), joint_reset_position_scale=None)
 
 
 def _weight_ramp(reward_name: str, start_step: int, num_steps: int, terminal_weight: float,

@@ -20,7 +20,7 @@ from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SE
                                                    velocity_curriculum_cfg, velocity_events_cfg,
                                                    velocity_policy_obs_cfg, velocity_scene_cfg,
                                                    velocity_sim_cfg,
-                                                   velocity_terminations_cfg)
+                                                   velocity_terminations_cfg, uniform_root_reset)
 from agile.utils.config import configclass
 
 CONTROLLED_JOINTS = [*LOWER_BODY_JOINTS, "waist_roll_joint", "waist_pitch_joint"]
@@ -112,5 +112,6 @@ class G1VelocityHistoryEnvCfg(ManagerBasedRLEnvCfg):
     terminations = velocity_terminations_cfg(BASE_HEIGHT_TARGET_M, trunk_bodies=["torso_link", "pelvis"])
     events = velocity_events_cfg(base_body="pelvis", base_mass_add_kg=(-1.0, 5.0),
                                  base_com_range_m={"x": (-0.15, 0.25), "y": (-0.05, 0.05), "z": (-0.15, 0.15)},
-                                 extremity_bodies=["left_wrist_yaw_link", "right_wrist_yaw_link", *FOOT_BODIES])
+                                 extremity_bodies=["left_wrist_yaw_link", "right_wrist_yaw_link", *FOOT_BODIES],
+                                 reset_base=uniform_root_reset(xy_range_m=2.5))
     curriculum = velocity_curriculum_cfg(action_rate_final=-1.0, action_rate_rate_final=-0.5)

@@ -17,7 +17,8 @@ from agile.rl_env import ManagerBasedRLEnvCfg
 from agile.rl_env.managers import CurrTerm, DoneTerm, RewTerm, SceneEntityCfg, Unoise
 from agile.tasks.velocity import mdp
 from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, VelocityEventsCfg,
-                                                   random_upper_body_action_cfg, velocity_events_cfg, velocity_sim_cfg)
+                                                   random_upper_body_action_cfg, uniform_root_reset, velocity_events_cfg,
+                                                   velocity_sim_cfg)
 from agile.tasks.velocity_height.g1.velocity_height_env_cfg import (COMMAND, FEET, FEET_CONTACT, FOOT_BODIES, LEGS,
                                                                      STANDING_HEIGHT_M, TRUNK_CONTACT_BODIES,
                                                                      PrivilegedCriticObsCfg, PrivilegedPolicyObsCfg,
@@ -60,13 +61,13 @@ class ActionsCfg:
 
 def low_noise_policy_obs_cfg() -> PrivilegedPolicyObsCfg:
     """AGILE V1.3's privileged policy group: the height teacher's terms with a tenth of its noise (gravity half)."""
-    cfg = PrivilegedPolicyObsCfg()
-    cfg.base_lin_vel.noise = Unoise(-0.01, 0.01)
-    cfg.base_ang_vel.noise = Unoise(-0.02, 0.02)
-    cfg.projected_gravity.noise = Unoise(-0.005, 0.005)
-    cfg.joint_pos.noise = Unoise(-0.001, 0.001)
-    cfg.joint_vel.noise = Unoise(-0.15, 0.15)
-    return cfg
+    base = PrivilegedPolicyObsCfg()
+    return dataclasses.replace(
+        base, base_lin_vel=dataclasses.replace(base.base_lin_vel, noise=Unoise(-0.01, 0.01)),
+        base_ang_vel=dataclasses.replace(base.base_ang_vel, noise=Unoise(-0.02, 0.02)),
+        projected_gravity=dataclasses.replace(base.projected_gravity, noise=Unoise(-0.005, 0.005)),
+        joint_pos=dataclasses.replace(base.joint_pos, noise=Unoise(-0.001, 0.001)),
+        joint_vel=dataclasses.replace(base.joint_vel, noise=Unoise(-0.15, 0.15)))
 
 
 @configclass
@@ -137,17 +138,13 @@ def velocity_teacher_events_cfg() -> VelocityEventsCfg:
     0-0.75, joint friction 0.001-0.005 N·m, armature ×0.8-1.2, torso +(-1..3) kg and COM shift, pushes on the
     torso (10 N / 5 N·m) and on the wrists and feet (5 N / 0.5 N·m); reset heights ±5 cm; pushes of 0.2 m/s and
     0.05 rad/s that `pushing_curriculum` grows."""
-    cfg = velocity_events_cfg(base_body="torso_link", base_mass_add_kg=(-1.0, 3.0),
-                              base_com_range_m={"x": (-0.15, 0.15), "y": (-0.05, 0.05), "z": (-0.15, 0.15)},
-                              extremity_bodies=["left_wrist_yaw_link", "right_wrist_yaw_link", *FOOT_BODIES])
-    cfg.physics_material.params.update(static_friction_range=(0.4, 1.5), dynamic_friction_range=(0.4, 0.8),
-                                       restitution_range=(0.0, 0.75))
-    cfg.joint_friction.params["friction_distribution_params"] = (0.001, 0.005)
-    cfg.joint_armature.params["armature_distribution_params"] = (0.8, 1.2)
-    cfg.reset_base.params["pose_range"]["z"] = (-0.05, 0.05)
-    cfg.push_robot.params["velocity_range"] = {"x": (-0.2, 0.2), "y": (-0.2, 0.2), "roll": (-0.05, 0.05),
-                                               "pitch": (-0.05, 0.05), "yaw": (-0.05, 0.05)}
-    return cfg
+    return velocity_events_cfg(
+        base_body="torso_link", base_mass_add_kg=(-1.0, 3.0),
+        base_com_range_m={"x": (-0.15, 0.15), "y": (-0.05, 0.05), "z": (-0.15, 0.15)},
+        extremity_bodies=["left_wrist_yaw_link", "right_wrist_yaw_link", *FOOT_BODIES],
+        static_friction=(0.4, 1.5), dynamic_friction=(0.4, 0.8), restitution=(0.0, 0.75),
+        joint_friction_nm=(0.001, 0.005), armature_scale=(0.8, 1.2), push_velocity=(0.2, 0.05),
+        reset_base=uniform_root_reset(xy_range_m=2.5, z_range_m=0.05))
 
 
 def ramp(reward_name: str, terminal_weight: float, start_step: int = 50_000, num_steps: int = 50_000) -> CurrTerm:

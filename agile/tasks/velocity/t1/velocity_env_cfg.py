@@ -6,7 +6,6 @@ terrain curriculum, domain randomisation, pushes, and random head and arm motion
 
 from __future__ import annotations
 
-
 from agile.assets.booster_t1 import LEG_JOINTS, t1_robot_cfg
 from agile.rl_env import ManagerBasedRLEnvCfg
 from agile.rl_env.managers import RewTerm, SceneEntityCfg
@@ -17,7 +16,7 @@ from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SE
                                                    velocity_curriculum_cfg, velocity_events_cfg,
                                                    velocity_policy_obs_cfg, velocity_scene_cfg,
                                                    velocity_sim_cfg,
-                                                   velocity_terminations_cfg)
+                                                   velocity_terminations_cfg, uniform_root_reset)
 from agile.utils.config import configclass
 
 LEGS = SceneEntityCfg("robot", joint_names=LEG_JOINTS)
@@ -106,5 +105,6 @@ class T1VelocityEnvCfg(ManagerBasedRLEnvCfg):
     terminations = velocity_terminations_cfg(BASE_HEIGHT_TARGET_M, trunk_bodies=["Trunk", "Waist"])
     events = velocity_events_cfg(base_body="Trunk", base_mass_add_kg=(-1.0, 3.0),
                                  base_com_range_m={"x": (-0.15, 0.15), "y": (-0.05, 0.05), "z": (-0.15, 0.15)},
-                                 extremity_bodies=["left_hand_link", "right_hand_link", *FOOT_BODIES])
+                                 extremity_bodies=["left_hand_link", "right_hand_link", *FOOT_BODIES],
+                                 reset_base=uniform_root_reset(xy_range_m=2.5))
     curriculum = velocity_curriculum_cfg(action_rate_final=-2.0, action_rate_rate_final=-1.0)

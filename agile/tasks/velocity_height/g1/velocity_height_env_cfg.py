@@ -20,12 +20,13 @@ import math
 
 from agile.assets.unitree_g1 import ACTION_SCALE, LOWER_BODY_JOINTS, g1_armature_actuators, g1_robot_cfg
 from agile.rl_env import ManagerBasedRLEnvCfg
-from agile.rl_env.managers import CurrTerm, DoneTerm, EventTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg, Unoise
+from agile.rl_env.managers import CurrTerm, DoneTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg, Unoise
 from agile.sim.scene_cfg import HeightScannerCfg, SceneCfg
 from agile.sim.terrain import LESS_ROUGH_TERRAIN_CFG
 from agile.tasks.velocity import mdp
 from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, VelocityEventsCfg,
-                                                   velocity_events_cfg, velocity_scene_cfg, velocity_sim_cfg)
+                                                   uniform_root_reset, velocity_events_cfg, velocity_scene_cfg,
+                                                   velocity_sim_cfg)
 from agile.utils.config import configclass
 
 COMMAND = "base_velocity"
@@ -58,12 +59,12 @@ def velocity_height_scene_cfg(actuators: dict | None = None) -> SceneCfg:
     """The G1 (FEB26 teacher: armature-derived gains, delayed implicit PD on legs and feet) on the less-rough
     terrain, a contact sensor on the feet and on every body whose contact ends an episode, the base-height ray
     and the foot scans."""
-    scene = velocity_scene_cfg(g1_robot_cfg(g1_armature_actuators() if actuators is None else actuators), LESS_ROUGH_TERRAIN_CFG, base_body="pelvis",
-                               sensed_bodies=[*TRUNK_CONTACT_BODIES, *FOOT_BODIES])
-    scene.ground_friction = 0.4  # the bottom of this task's robot friction range (see velocity_scene_cfg)
-    scene.height_scanners[LEFT_FOOT_SCANNER] = foot_height_scanner_cfg(FOOT_BODIES[0])
-    scene.height_scanners[RIGHT_FOOT_SCANNER] = foot_height_scanner_cfg(FOOT_BODIES[1])
-    return scene
+    return velocity_scene_cfg(
+        g1_robot_cfg(g1_armature_actuators() if actuators is None else actuators), LESS_ROUGH_TERRAIN_CFG,
+        base_body="pelvis", sensed_bodies=[*TRUNK_CONTACT_BODIES, *FOOT_BODIES],
+        ground_friction=0.4,  # the bottom of this task's robot friction range (see velocity_scene_cfg)
+        extra_height_scanners={LEFT_FOOT_SCANNER: foot_height_scanner_cfg(FOOT_BODIES[0]),
+                               RIGHT_FOOT_SCANNER: foot_height_scanner_cfg(FOOT_BODIES[1])})
 
 
 # -- commands ------------------------------------------------------------------------------------------
@@ -238,25 +239,15 @@ def velocity_height_events_cfg() -> VelocityEventsCfg:
     0.4-1.5 / 0.4-0.8; leg gains ×0.9-1.1 / 0.8-1.2, arm and waist gains ×0.5-2; armature ×0.4-1.6; torso
     +(-1..3) kg; 5 N / 2 N·m on the torso and 5 N / 0.5 N·m on the wrists every 2-10 s; joints reset ×0.8-2;
     pushes of 0.2 m/s and 0.05 rad/s)."""
-    cfg = velocity_events_cfg(base_body="torso_link", base_mass_add_kg=(-1.0, 3.0),
-                              base_com_range_m={"x": (-0.15, 0.15), "y": (-0.05, 0.05), "z": (-0.15, 0.15)},
-                              extremity_bodies=["left_wrist_yaw_link", "right_wrist_yaw_link"])
-    cfg.physics_material.params.update(static_friction_range=(0.4, 1.5), dynamic_friction_range=(0.4, 0.8))
-    cfg.actuator_gains.params.update(damping_distribution_params=(0.8, 1.2), asset_cfg=LEGS)
-    cfg.upper_body_actuator_gains = EventTerm(
-        func=mdp.randomize_actuator_gains, mode="startup",
-        params={"stiffness_distribution_params": (0.5, 2.0), "damping_distribution_params": (0.5, 2.0),
-                "operation": "scale",
-                "asset_cfg": SceneEntityCfg("robot", joint_names=["waist_.*_joint", ".*_shoulder_.*_joint",
-                                                                  ".*_elbow_joint", ".*_wrist_.*_joint"])})
-    cfg.joint_armature.params["armature_distribution_params"] = (0.4, 1.6)
-    cfg.base_external_wrench.interval_range_s = (2.0, 10.0)
-    cfg.base_external_wrench.params.update(force_range=(-5.0, 5.0), torque_range=(-2.0, 2.0))
-    cfg.extremities_external_wrench.interval_range_s = (2.0, 10.0)
-    cfg.push_robot.params["velocity_range"] = {"x": (-0.2, 0.2), "y": (-0.2, 0.2), "roll": (-0.05, 0.05),
-                                               "pitch": (-0.05, 0.05), "yaw": (-0.05, 0.05)}
-    cfg.reset_robot_joints.params["position_range"] = (0.8, 2.0)
-    return cfg
+    return velocity_events_cfg(
+        base_body="torso_link", base_mass_add_kg=(-1.0, 3.0),
+        base_com_range_m={"x": (-0.15, 0.15), "y": (-0.05, 0.05), "z": (-0.15, 0.15)},
+        extremity_bodies=["left_wrist_yaw_link", "right_wrist_yaw_link"],
+        static_friction=(0.4, 1.5), dynamic_friction=(0.4, 0.8), gain_joints=LEGS, damping_scale=(0.8, 1.2),
+        upper_body_gain_joints=["waist_.*_joint", ".*_shoulder_.*_joint", ".*_elbow_joint", ".*_wrist_.*_joint"],
+        upper_body_gain_scale=(0.5, 2.0), armature_scale=(0.4, 1.6), wrench_interval_s=(2.0, 10.0),
+        base_wrench_n_nm=(5.0, 2.0), push_velocity=(0.2, 0.05),
+        reset_base=uniform_root_reset(xy_range_m=2.5), joint_reset_position_scale=(0.8, 2.0))
 
 
 # -- curriculum ----------------------------------------------------------------------------------------

@@ -8,8 +8,5 @@ def g1_height_tracking_ppo_runner_cfg() -> PpoRunnerCfg:
     # AGILE also uses L2C2 smoothness regularisation (actor 1.0, critic 0.1) and reward normalisation (return scale
     # decay 0.999); rsl-rl 5.5 and PpoRunnerCfg have neither, so they are not reproduced. The reference lists no
     # mirror augmentation for this task, and the mirror function does not know the height command: none here.
-    cfg = velocity_ppo_runner_cfg(experiment_name="height_tracking_g1", max_iterations=100_000, init_action_std=1.0)
-    cfg.algorithm.entropy_coef = 0.0025
-    cfg.algorithm.gamma = 0.995
-    cfg.algorithm.symmetry_cfg = None
-    return cfg
+    return velocity_ppo_runner_cfg(experiment_name="height_tracking_g1", max_iterations=100_000, init_action_std=1.0,
+                                   entropy_coef=0.0025, gamma=0.995, symmetry_cfg=None)

@@ -8,9 +8,6 @@ def g1_velocity_history_ppo_runner_cfg() -> PpoRunnerCfg:
     return velocity_ppo_runner_cfg(experiment_name="velocity_g1_history", max_iterations=50_000)
 
 
-
 def g1_velocity_teacher_ppo_runner_cfg() -> PpoRunnerCfg:
     """Velocity-G1-Teacher-v0: the G1 velocity runner with entropy 0.01 (the env clips the raw actions to ±4)."""
-    cfg = velocity_ppo_runner_cfg(experiment_name="velocity_g1_teacher", max_iterations=50_000)
-    cfg.algorithm.entropy_coef = 0.01
-    return cfg
+    return velocity_ppo_runner_cfg(experiment_name="velocity_g1_teacher", max_iterations=50_000, entropy_coef=0.01)

@@ -10,9 +10,7 @@ TEACHER_TASK = "Velocity-Height-G1-Teacher-v0"
 
 def _ppo_runner_cfg(experiment_name: str) -> PpoRunnerCfg:
     """AGILE G1VelocityHeightPpoRunnerCfg: the G1 velocity runner with entropy 0.01, 30k iterations."""
-    cfg = velocity_ppo_runner_cfg(experiment_name=experiment_name, max_iterations=30_000)
-    cfg.algorithm.entropy_coef = 0.01
-    return cfg
+    return velocity_ppo_runner_cfg(experiment_name=experiment_name, max_iterations=30_000, entropy_coef=0.01)
 
 
 def g1_velocity_height_teacher_ppo_runner_cfg() -> PpoRunnerCfg:
