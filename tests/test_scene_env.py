@@ -110,6 +110,19 @@ def test_two_robots_a_table_and_an_object_build_step_and_reset(device):
     assert obs["policy"].shape == (2, 23 + 23 + 3) and torch.isfinite(reward).all()
 
 
+def test_a_reset_puts_every_entitys_bodies_where_its_root_was_written():
+    # forward kinematics after a reset masks articulations, four per world here: a mask per world (the size of
+    # the world count) updated world 0's entities only, and the object's body pose of world 1 kept its
+    # template's, off its env (which a camera renders and body-frame terms read until the next physics step)
+    env = ManagerBasedRLEnv(TwoRobotsEnvCfg(), device="cpu")
+    env.reset()
+    obj = env.scene["object"]
+    assert torch.allclose(obj.body_pose_w[:, 0], obj.root_pose_w, atol=1e-6)
+    for name in ("robot_a", "robot_b"):
+        robot = env.scene[name]
+        assert torch.allclose(robot.body_pose_w[:, 0, :3], robot.root_pos_w, atol=1e-6)
+
+
 def test_a_term_naming_a_missing_entity_lists_the_scene():
     cfg = TwoRobotsEnvCfg()
     cfg.rewards.robot_b_still.params["asset_cfg"] = SceneEntityCfg("robot_c")

@@ -11,7 +11,7 @@ from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 SMOKE_TASKS = ["Velocity-T1-v0", "Velocity-G1-History-v0", "Velocity-G1-Teacher-v0", "Velocity-Height-G1-Teacher-v0",
                "Velocity-Height-G1-History-v0", "Debug-G1-v0", "Debug-T1-v0", "Debug-G1-Object-v0"]
 SMOKE_TASKS += ["MotionTracking-G1-v0"]
-SMOKE_TASKS += ["PickPlace-G1-v0", "PickPlace-G1-Debug-v0"]
+SMOKE_TASKS += ["PickPlace-G1-v0", "PickPlace-G1-Debug-v0", "PickPlace-G1-Record-v0"]
 SMOKE_TASKS += ["StandUp-T1-v0", "HeightTracking-G1-v0"]  # gym.make collects their fallen-state datasets
 MULTI_AGENT_SMOKE_TASKS = ["MultiRate-G1-T1-Velocity-v0"]
 DISTILLED = "distilled from a teacher: tests/test_distillation.py builds, steps, trains and exports it"
@@ -46,6 +46,8 @@ def assert_in_space(space, value, where: str) -> None:
 def test_task_builds_steps_resets_and_trains(task, tmp_path):
     env_cfg, _ = agile.tasks.load_cfgs(task)
     env_cfg.check_capture_safety = True  # the steps after the capture's warm-up: nothing the GPU's graph refuses
+    for camera in env_cfg.scene.cameras.values():  # a recording task's camera, small: a CPU render per step
+        camera.width, camera.height = 32, 24
     env = gym.make(task, cfg=env_cfg, num_envs=2, device="cpu").unwrapped
     obs, _ = env.reset()
     assert_in_space(env.observation_space, obs, "obs")

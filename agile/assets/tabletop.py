@@ -17,14 +17,17 @@ CUBE_EDGE_M = 0.06
 CUBE_MASS_KG = 0.1
 CUBE_START_POS_M = (0.33, -0.12, TABLE_TOP_HEIGHT_M + CUBE_EDGE_M / 2)
 """Where every shipped trajectory picks the cube up: in front of the right hand, resting on the table."""
+TABLE_COLOR_RGB = (0.55, 0.42, 0.30)
+CUBE_COLOR_RGB = (0.85, 0.15, 0.10)
+"""A red cube on a wooden table: apart in a camera image, whatever the light."""
 
 
 def table_cfg() -> RigidObjectCfg:
     x_m = TABLE_FRONT_EDGE_X_M + TABLE_SIZE_M[0] / 2
     return RigidObjectCfg(shape=BoxShapeCfg(size_m=TABLE_SIZE_M), body_type="fixed", friction=0.8,
-                          init_pos_m=(x_m, 0.0, TABLE_SIZE_M[2] / 2))
+                          init_pos_m=(x_m, 0.0, TABLE_SIZE_M[2] / 2), color_rgb=TABLE_COLOR_RGB)
 
 
 def cube_cfg() -> RigidObjectCfg:
     return RigidObjectCfg(shape=BoxShapeCfg(size_m=(CUBE_EDGE_M,) * 3), body_type="dynamic", mass_kg=CUBE_MASS_KG,
-                          friction=1.0, init_pos_m=CUBE_START_POS_M)
+                          friction=1.0, init_pos_m=CUBE_START_POS_M, color_rgb=CUBE_COLOR_RGB)

@@ -45,7 +45,14 @@ def load_runner(checkpoint: dict, env, agent_cfg, verbose: bool = False):
         runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
     # a shipped policy holds the acting model only; a training checkpoint also the critic (or teacher) and optimizer
     policy_only = "optimizer_state_dict" not in checkpoint
-    restore_runner(runner, checkpoint, load_cfg={policy_obs_set(agent_cfg): True} if policy_only else None)
+    try:
+        restore_runner(runner, checkpoint, load_cfg={policy_obs_set(agent_cfg): True} if policy_only else None)
+    except RuntimeError as err:  # torch's load_state_dict: a network of other sizes (another task's policy)
+        mismatches = [line.strip() for line in str(err).splitlines() if "size mismatch" in line]
+        if not mismatches:
+            raise
+        raise PolicyMismatchError(f"the checkpoint's networks do not fit {env.task_name}'s observations and actions "
+                                  f"(a policy of another task?): {mismatches[0]}") from None
     return runner
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import newton
 import torch
 
+from agile.sim.camera import Camera
 from agile.sim.contact_sensor import ContactSensor
 from agile.sim.entities.articulation import Articulation
 from agile.sim.entities.entity import Entity, EntityLayout, RigidObject
@@ -18,7 +19,7 @@ def check_scene_names(cfg: SceneCfg) -> None:
     """Entities and sensors share one namespace (`env.scene[name]`): a name used twice is an error."""
     seen: dict[str, str] = {}
     for kind, names in (("entities", cfg.entities), ("contact_sensors", cfg.contact_sensors),
-                        ("height_scanners", cfg.height_scanners)):
+                        ("height_scanners", cfg.height_scanners), ("cameras", cfg.cameras)):
         for name in names:
             if name == GROUND:
                 raise ConfigError(f"scene.{kind}: the name '{GROUND}' is reserved for the ground or terrain")
@@ -106,18 +107,19 @@ class Scene:
     """`env.scene`: every entity and sensor by name (`env.scene["robot"]`, `env.scene["contact_forces"]`)."""
 
     def __init__(self, entities: dict[str, Entity], contact_sensors: dict[str, ContactSensor],
-                 height_scanners: dict[str, HeightScanner]):
+                 height_scanners: dict[str, HeightScanner], cameras: dict[str, Camera] | None = None):
         self.entities = entities
         self.articulations = {k: v for k, v in entities.items() if isinstance(v, Articulation)}
         self.rigid_objects = {k: v for k, v in entities.items() if isinstance(v, RigidObject)}
         self.contact_sensors = contact_sensors
         self.height_scanners = height_scanners
-        self._all = {**entities, **contact_sensors, **height_scanners}
+        self.cameras = cameras or {}
+        self._all = {**entities, **contact_sensors, **height_scanners, **self.cameras}
 
     def __getitem__(self, name: str):
         if name not in self._all:
             raise KeyError(f"no entity or sensor '{name}' in the scene. Entities: {sorted(self.entities)}; "
-                           f"sensors: {sorted(self.contact_sensors) + sorted(self.height_scanners)}")
+                           f"sensors: {sorted(self.contact_sensors) + sorted(self.height_scanners) + sorted(self.cameras)}")
         return self._all[name]
 
     def __contains__(self, name: str) -> bool:
@@ -135,6 +137,8 @@ class Scene:
         # once per step, after the entities: several terms read the same rays
         for scanner in self.height_scanners.values():
             scanner.update()
+        for camera in self.cameras.values():  # rendered when next read
+            camera.mark_stale()
 
     def update_after_physics(self) -> None:
         """`update`, plus finite-difference accelerations and actuator torques: once per env step."""

@@ -121,6 +121,8 @@ class RigidObjectCfg:
     init_rot_xyzw: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
     contact_dim: int = 3
     """MuJoCo `condim` of the object's shapes (3 = friction cone)."""
+    color_rgb: tuple[float, float, float] | None = None
+    """Colour of the shape in camera images and viewers (0-1 per channel); None: Newton's palette."""
 
 
 EntityCfg = ArticulationCfg | RigidObjectCfg
@@ -166,6 +168,33 @@ class HeightScannerCfg:
 
 
 @configclass
+class CameraCfg:
+    """A pinhole RGB camera fixed to a body, rendered for every env by Newton's Warp ray tracer
+    (`newton.sensors.SensorCamera`, one view per world); terms find it by its scene name. The image is rendered when
+    read (`Camera.rgb()`), at most once per env step.
+
+    The intrinsics are an OpenCV calibration at `calibration_size_px`; the rendered `width` x `height` may differ
+    (the rays scale with it), so a small image for a test keeps the field of view."""
+
+    entity: str = "robot"
+    body_name: str = ""
+    """Regex of the one body the camera is fixed to."""
+    offset_pos_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Camera position in the body frame."""
+    pitch_down_rad: float = 0.0
+    """The camera looks along the body's +x axis, tilted down about the body's y axis by this angle (image x to the
+    body's right, image y down: the ROS optical convention)."""
+    width: int = 640
+    height: int = 480
+    fx: float = 375.0
+    fy: float = 375.0
+    cx: float = 320.0
+    cy: float = 240.0
+    """OpenCV pinhole intrinsics [px] at `calibration_size_px`."""
+    calibration_size_px: tuple[int, int] = (640, 480)
+
+
+@configclass
 class SceneCfg:
     """Every world's content. Entity and sensor names share one namespace: `env.scene[name]`."""
 
@@ -191,3 +220,4 @@ class SceneCfg:
     """Distance between env origins on flat ground."""
     contact_sensors: dict[str, ContactSensorCfg] = field(default_factory=dict)
     height_scanners: dict[str, HeightScannerCfg] = field(default_factory=dict)
+    cameras: dict[str, CameraCfg] = field(default_factory=dict)

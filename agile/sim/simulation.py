@@ -13,6 +13,7 @@ import torch
 import warp as wp
 
 from agile.actuators import DelayedTargetGroup, ExplicitActuatorGroup
+from agile.sim.camera import Camera
 from agile.sim.capacity import PhysicsCapacity
 from agile.sim.contact_sensor import ContactSensor
 from agile.sim.height_scanner import HeightScanner, TerrainHeights
@@ -139,11 +140,22 @@ class Simulation:
                 height_scanners[name] = HeightScanner(scanner_cfg, entity, terrain_heights)
             except ValueError as err:
                 raise ConfigError(f"{where}: {err}") from None
-        self.scene = Scene(entities, contact_sensors, height_scanners)
+        cameras: dict[str, Camera] = {}
+        for name, camera_cfg in scene_cfg.cameras.items():
+            where = f"scene.cameras.{name}"
+            entity = entity_of(entities, camera_cfg.entity, f"{where}.entity")
+            try:
+                cameras[name] = Camera(camera_cfg, entity, self.model)
+            except ValueError as err:
+                raise ConfigError(f"{where}: {err}") from None
+        self.scene = Scene(entities, contact_sensors, height_scanners, cameras)
         # world mask for solver.reset: one entry per world plus the global world (-1), which stays False
         self._world_mask = torch.zeros(num_envs + 1, dtype=torch.bool, device=self.device)
         self._world_mask_wp = wp.from_torch(self._world_mask, dtype=wp.bool)
-        self._fk_mask_wp = wp.from_torch(self._world_mask[:num_envs], dtype=wp.bool)
+        # forward kinematics masks articulations, not worlds: a world holds one per entity (a robot, a table, a cube)
+        self._articulation_world = wp.to_torch(self.model.articulation_world).long()
+        self._fk_mask = torch.zeros(self.model.articulation_count, dtype=torch.bool, device=self.device)
+        self._fk_mask_wp = wp.from_torch(self._fk_mask, dtype=wp.bool)
         self._body_wrench_w = wp.to_torch(self.state.body_f).view(num_envs, -1, 6)
         self.physics_step_hooks: list[Callable[[], None]] = []
         """Work launched before every physics step after the actuators, e.g. an external wrench that follows the
@@ -341,5 +353,5 @@ class Simulation:
         if mask is None:
             newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state)
         else:
-            self._world_mask[: self.num_envs].copy_(mask)
+            self._fk_mask.copy_(mask[self._articulation_world])
             newton.eval_fk(self.model, self.state.joint_q, self.state.joint_qd, self.state, mask=self._fk_mask_wp)

@@ -18,7 +18,6 @@ from agile.tasks.pick_place import g1 as pick_place_g1  # noqa: F401  (registrat
 from agile.utils.config import load_entry_point
 
 
-
 def registered_tasks() -> list[str]:
     """IDs of the agile tasks registered with gymnasium."""
     return sorted(spec_id for spec_id, spec in gym.registry.items()
@@ -31,12 +30,13 @@ def task_spec(task: str) -> gym.envs.registration.EnvSpec:
     return gym.spec(task)
 
 
-TASK_KINDS = ("trainable", "debug", "multi_agent")
+TASK_KINDS = ("trainable", "debug", "multi_agent", "record")
 
 
 def task_kind(task: str) -> str:
     """'debug' for tasks run by hand in the browser GUI, 'multi_agent' for worlds of several agents (a
-    `MultiAgentEnv`; their registration says `kind`), else 'trainable'."""
+    `MultiAgentEnv`), 'record' for tasks that record demonstrations with another task's policy (`agile record`;
+    their registration says `kind`), else 'trainable'."""
     return task_spec(task).kwargs.get("kind", "trainable")
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 from agile.tasks import load_cfgs, pretrained_policy, registered_tasks, task_kind, task_spec
 from agile.utils.config import load_entry_point
 
-CATALOGUE_KINDS = ("trainable", "distilled", "debug", "multi_agent")
+CATALOGUE_KINDS = ("trainable", "distilled", "debug", "multi_agent", "record")
 """trainable: PPO on its own reward; distilled: a student whose agent cfg is a DistillationRunnerCfg;
 debug: run by hand in the GUI; multi_agent: a MultiAgentEnv (several robots, own rates)."""
 EVALUATED_KINDS = ("trainable", "distilled")

@@ -41,6 +41,13 @@ class ActionTerm:
         (the map sim2mujoco runs: target = action · scale + offset)."""
         return {"type": type(self).__name__}
 
+    def demonstration_action(self) -> tuple[list[str], torch.Tensor]:
+        """(names, (N, D) values): this term's part of a recorded demonstration's action, in the robot's own units
+        (absolute joint targets, a command), so that a policy learned from the recording does not need this
+        term's scaling. Valid after a step; a reset does not change it."""
+        raise NotImplementedError(f"action term {type(self).__name__} has no demonstration action: it cannot be "
+                                  "recorded")
+
     def link(self, terms: dict[str, ActionTerm]) -> None:
         """Called once all terms are built, with every term by name: a term that reads another term (a
         mirrored copy of its targets) looks it up here. Raise ValueError for a bad reference."""

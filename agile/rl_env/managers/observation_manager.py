@@ -41,6 +41,20 @@ def check_noise_and_clip(term: ObsTerm, where: str) -> None:
         raise ConfigError(f"{where}.clip must be ordered (low <= high), got {tuple(term.clip)}")
 
 
+def check_array_term(term: ObsTerm, group: ObsGroup, history_length: int, shape: tuple[int, ...], where: str) -> None:
+    """A term with more than one value axis per env (an image) is passed on as it is: in a group of separate terms,
+    without the arithmetic of vector terms."""
+    if group.concatenate_terms:
+        raise ConfigError(f"{where} has shape {shape} per env (an image): its group must keep terms apart "
+                          "(concatenate_terms=False)")
+    unsupported = [name for name, on in (("noise", term.noise is not None and group.enable_corruption),
+                                         ("clip", term.clip is not None), ("scale", term.scale is not None),
+                                         ("history_length", history_length > 0)) if on]
+    if unsupported:
+        raise ConfigError(f"{where} has shape {shape} per env (an image): {', '.join(unsupported)} cannot apply to "
+                          "it; leave them unset")
+
+
 class ObservationManager:
     def __init__(self, cfg, env):
         self.env = env
@@ -50,16 +64,30 @@ class ObservationManager:
         self.funcs: dict[str, dict] = {}
         self.histories: dict[str, dict[str, TermHistory]] = {}
         self.term_dims: dict[str, dict[str, int]] = {}
+        """Values per env of each term (its history included); an image term counts its pixels x channels."""
+        self.term_shapes: dict[str, dict[str, tuple[int, ...]]] = {}
+        """Each term's shape per env: (dim,) for a vector term, e.g. (height, width, 3) for an image."""
+        self.term_dtypes: dict[str, dict[str, torch.dtype]] = {}
         for group_name, group in self.group_cfgs.items():
             terms = collect_terms(group, ObsTerm)
             self.term_cfgs[group_name] = terms
             self.funcs[group_name] = {n: prepare_term(env, f"observation '{group_name}'", n, t) for n, t in terms.items()}
             self.histories[group_name] = {}
             self.term_dims[group_name] = {}
+            self.term_shapes[group_name] = {}
+            self.term_dtypes[group_name] = {}
             for name, term in terms.items():
-                check_noise_and_clip(term, f"task '{env.task_name}': observations.{group_name}.{name}")
-                dim = self.funcs[group_name][name](env, **term.params).shape[-1]
+                where = f"task '{env.task_name}': observations.{group_name}.{name}"
+                check_noise_and_clip(term, where)
+                value = self.funcs[group_name][name](env, **term.params)
+                dim = value.shape[-1]
                 length = group.history_length if group.history_length is not None else term.history_length
+                self.term_dtypes[group_name][name] = value.dtype
+                if value.dim() > 2:  # an image: passed on as it is
+                    check_array_term(term, group, length, tuple(value.shape[1:]), where)
+                    self.term_shapes[group_name][name] = tuple(value.shape[1:])
+                    self.term_dims[group_name][name] = value[0].numel()
+                    continue
                 if length < 0:
                     where = f"observations.{group_name}" + ("" if group.history_length is not None else f".{name}")
                     raise ConfigError(f"task '{env.task_name}': {where}.history_length must be >= 0 (0: no history), "
@@ -67,6 +95,7 @@ class ObservationManager:
                 if length > 0:
                     self.histories[group_name][name] = TermHistory(length, env.num_envs, dim, env.device)
                 self.term_dims[group_name][name] = dim * max(length, 1)
+                self.term_shapes[group_name][name] = (dim * max(length, 1),)
 
     @property
     def group_dims(self) -> dict[str, int]:
@@ -79,12 +108,15 @@ class ObservationManager:
 
         import gymnasium as gym
 
-        def box(dim: int):
-            return gym.spaces.Box(-math.inf, math.inf, (dim,) if batch is None else (batch, dim))
+        def box(shape: tuple[int, ...], dtype=torch.float32):
+            shape = shape if batch is None else (batch, *shape)
+            if dtype == torch.uint8:
+                return gym.spaces.Box(0, 255, shape, dtype="uint8")
+            return gym.spaces.Box(-math.inf, math.inf, shape)
 
         return gym.spaces.Dict({
-            g: box(sum(dims.values())) if self.group_cfgs[g].concatenate_terms
-            else gym.spaces.Dict({t: box(d) for t, d in dims.items()})
+            g: box((sum(dims.values()),)) if self.group_cfgs[g].concatenate_terms
+            else gym.spaces.Dict({t: box(self.term_shapes[g][t], self.term_dtypes[g][t]) for t in dims})
             for g, dims in self.term_dims.items()})
 
     def compute_group(self, group_name: str) -> torch.Tensor | TensorDict:

@@ -1,4 +1,4 @@
-"""Observation terms: functions (env, **params) -> (N, D) tensors."""
+"""Observation terms: functions (env, **params) -> (N, D) tensors (an image term: (N, H, W, 3))."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ import torch
 
 from agile.rl_env.managers import ROBOT, SceneEntityCfg
 
-__all__ = ["base_ang_vel", "base_height_above_ground", "base_height_from_sensor", "base_lin_vel",
+__all__ = ["base_ang_vel", "base_height_above_ground", "base_height_from_sensor", "base_lin_vel", "camera_rgb",
            "contact_force_norm", "generated_commands", "height_scan", "height_scan_feet", "joint_pos",
-           "joint_pos_rel", "joint_vel_rel", "last_action", "projected_gravity"]
+           "joint_pos_rel", "joint_vel_rel", "last_action", "projected_gravity", "root_pose_env"]
 
 
 
@@ -99,3 +99,16 @@ def height_scan_feet(env, left_sensor_name: str, right_sensor_name: str) -> torc
         scanner = env.scene[name]
         scans.append(scanner.pos_w[:, 2:3] - scanner.hit_z_m)
     return torch.cat(scans, dim=1)
+
+
+def root_pose_env(env, asset_cfg: SceneEntityCfg = ROBOT) -> torch.Tensor:
+    """(N, 7) an entity's root position in its env's frame [m] (origin at the env's, world axes) and its
+    orientation (x, y, z, w), e.g. the object of a pick-and-place recording."""
+    entity = env.scene[asset_cfg.name]
+    return torch.cat((entity.root_pos_env, entity.root_quat_w), dim=-1)
+
+
+def camera_rgb(env, sensor_name: str) -> torch.Tensor:
+    """(N, H, W, 3) uint8: what the scene camera `sensor_name` sees (a copy, so that a later render does not change
+    an observation already returned). Keep it in a group of separate terms (`concatenate_terms=False`)."""
+    return env.scene[sensor_name].rgb(env.sim.state).clone()

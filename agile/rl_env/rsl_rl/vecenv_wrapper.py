@@ -10,11 +10,15 @@ from agile.rl_env.env import ManagerBasedRLEnv
 
 
 def flatten_groups(obs: TensorDict) -> TensorDict:
-    """RSL-RL's MLPs take one (N, D) tensor per group: concatenate groups kept as per-term TensorDicts."""
+    """RSL-RL's MLPs take one (N, D) tensor per group: concatenate groups kept as per-term TensorDicts. A group
+    with an image term (more than one value axis per env, e.g. a recording's camera) is left out: no network here
+    reads images, and rsl-rl would keep every group of every step in its rollout storage."""
     out = {}
     for key in obs.keys():
         value = obs[key]
         if isinstance(value, TensorDict):
+            if any(value[k].dim() > 2 for k in value.keys()):
+                continue
             value = torch.cat([value[k] for k in value.keys()], dim=-1)
         out[key] = value
     return TensorDict(out, batch_size=obs.batch_size)

@@ -184,7 +184,7 @@ def build_rigid_object(cfg: RigidObjectCfg, name: str, gravity_mps2: float) -> t
             builder.add_articulation([joint], label=name)
         else:
             body = builder.add_body(xform=xform, is_kinematic=kinematic, label=name)
-        add_shape(builder, body, shape, shape_cfg)
+        add_shape(builder, body, shape, shape_cfg, cfg.color_rgb)
     if cfg.mass_kg is not None:
         if cfg.mass_kg <= 0.0:
             raise ValueError(f"mass_kg must be > 0 (or None for the density's), got {cfg.mass_kg}")
@@ -199,19 +199,23 @@ def build_rigid_object(cfg: RigidObjectCfg, name: str, gravity_mps2: float) -> t
     return builder, [short_name(label) for label in builder.body_label]
 
 
-def add_shape(builder: newton.ModelBuilder, body: int, shape, shape_cfg: newton.ModelBuilder.ShapeConfig) -> None:
-    """The collision shape of a rigid object, centred on its body frame."""
+def add_shape(builder: newton.ModelBuilder, body: int, shape, shape_cfg: newton.ModelBuilder.ShapeConfig,
+              color_rgb: tuple[float, float, float] | None = None) -> None:
+    """The collision shape of a rigid object, centred on its body frame, in `color_rgb` (None: Newton's palette)."""
+    color = None if color_rgb is None else tuple(float(c) for c in color_rgb)
     if isinstance(shape, BoxShapeCfg):
         hx, hy, hz = (0.5 * s for s in shape.size_m)
-        builder.add_shape_box(body, hx=hx, hy=hy, hz=hz, cfg=shape_cfg)
+        builder.add_shape_box(body, hx=hx, hy=hy, hz=hz, cfg=shape_cfg, color=color)
     elif isinstance(shape, SphereShapeCfg):
-        builder.add_shape_sphere(body, radius=shape.radius_m, cfg=shape_cfg)
+        builder.add_shape_sphere(body, radius=shape.radius_m, cfg=shape_cfg, color=color)
     elif isinstance(shape, CapsuleShapeCfg):
-        builder.add_shape_capsule(body, radius=shape.radius_m, half_height=shape.half_height_m, cfg=shape_cfg)
+        builder.add_shape_capsule(body, radius=shape.radius_m, half_height=shape.half_height_m, cfg=shape_cfg,
+                                  color=color)
     elif isinstance(shape, CylinderShapeCfg):
-        builder.add_shape_cylinder(body, radius=shape.radius_m, half_height=shape.half_height_m, cfg=shape_cfg)
+        builder.add_shape_cylinder(body, radius=shape.radius_m, half_height=shape.half_height_m, cfg=shape_cfg,
+                                   color=color)
     elif isinstance(shape, MeshFileShapeCfg):
-        builder.add_shape_mesh(body, mesh=load_mesh(shape), cfg=shape_cfg)
+        builder.add_shape_mesh(body, mesh=load_mesh(shape), cfg=shape_cfg, color=color)
     else:
         raise ValueError(f"unknown shape config {type(shape).__name__}")
 

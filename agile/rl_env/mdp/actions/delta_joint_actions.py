@@ -76,6 +76,10 @@ class DeltaJointPositionAction(ActionTerm):
                 "scale_rad_per_step": rounded_list(self.scale), "low": rounded_list(self.low[0]),
                 "high": rounded_list(self.high[0])}
 
+    def demonstration_action(self) -> tuple[list[str], torch.Tensor]:
+        """The joint targets [rad] (absolute, as AGILE's recordings store them)."""
+        return list(self.joint_names), self.processed_actions
+
     def apply_actions(self) -> None:
         self.robot.joint_pos_target[:, self.joint_ids] = self.processed_actions
         if len(self.steady_ids):

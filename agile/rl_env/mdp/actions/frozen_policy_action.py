@@ -201,6 +201,10 @@ class FrozenPolicyAction(ActionTerm):
             targets = torch.maximum(torch.minimum(targets, self.target_clip[1]), self.target_clip[0])
         self.processed_actions.copy_(targets)
 
+    def demonstration_action(self) -> tuple[list[str], torch.Tensor]:
+        """The command to the frozen lower body [vx m/s, vy m/s, wz rad/s, height m], clipped to its ranges."""
+        return list(COMMAND_AXES), self.command
+
     def apply_actions(self) -> None:
         self.robot.joint_pos_target[:, self.joint_ids] = self.processed_actions
 

@@ -42,6 +42,10 @@ class JointPositionAction(ActionTerm):
     def action_dim(self) -> int:
         return len(self.joint_ids)
 
+    def demonstration_action(self) -> tuple[list[str], torch.Tensor]:
+        """The joint position targets [rad]."""
+        return list(self.joint_names), self.processed_actions
+
     def process_actions(self, actions: torch.Tensor) -> None:
         self.raw_actions.copy_(actions)
         processed = actions * self.scale + self.offset

@@ -17,7 +17,7 @@ from agile.assets.unitree_g1_with_hands import (PALM_BODY, GRASP_POINT_M, UPPER_
                                                 g1_with_hands_robot_cfg)
 from agile.rl_env import ManagerBasedRLEnvCfg
 from agile.rl_env.managers import CurrTerm, DoneTerm, EventTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg, Unoise
-from agile.sim.scene_cfg import SceneCfg
+from agile.sim.scene_cfg import CameraCfg, SceneCfg
 from agile.sim.sim_cfg import SimCfg, SolverCfg
 from agile.utils.config import configclass
 from agile.tasks.pick_place import mdp
@@ -35,10 +35,11 @@ resting on the table (or rocked by a touch) earns nothing. The `object_lifted` m
 
 # -- scene: the robot at the env origin facing +x, the table in front of it, the cube on the table ----------------
 
-def pick_place_scene_cfg() -> SceneCfg:
+def pick_place_scene_cfg(cameras: dict[str, CameraCfg] | None = None) -> SceneCfg:
+    """The scene, with `cameras` (the recording task's head camera) if given."""
     # a MuJoCo contact takes the larger friction of its two geoms: the ground at the bottom of the robot's range
     return SceneCfg(entities={"robot": g1_with_hands_robot_cfg(), "table": table_cfg(), "object": cube_cfg()},
-                    env_spacing_m=2.5, ground_friction=ROBOT_FRICTION_RANGE[0])
+                    env_spacing_m=2.5, ground_friction=ROBOT_FRICTION_RANGE[0], cameras=dict(cameras or {}))
 
 
 def pick_place_sim_cfg() -> SimCfg:

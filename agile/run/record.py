@@ -1,0 +1,177 @@
+"""Record demonstrations: a policy runs a recording task (e.g. PickPlace-G1-Record-v0) and every episode it plays is
+written as a LeRobot dataset in NVIDIA GR00T's layout (see agile/run/lerobot_dataset.py and docs/recording.md).
+
+    agile record --task PickPlace-G1-Record-v0 --checkpoint model.pt --num_envs 16 --num_episodes 100 --out demos/
+    agile record --task PickPlace-G1-Record-v0 --num_envs 4 --num_episodes 2 --out demos/   # the shipped policy
+
+Per control step (the task's rate: fps = 1 / step_dt) the dataset holds the task's `record` observation group
+before the step (its image terms as videos, its vector terms concatenated as `observation.state`), the action
+taken, as each action term records it (`demonstration_action`: absolute joint targets, a lower-body command), the
+reward and whether the episode ended. Every episode is its own (an early end too); episodes still running when
+`--num_episodes` are written are dropped. The scene's light changes direction and brightness about every 1.2 s
+(`--fixed_light` keeps it).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import os
+import time
+
+from agile.run import common as cli
+
+RECORD_GROUP = "record"
+LIGHT_CHANGE_STEPS = 60
+
+
+def recording_layout(env):
+    """(state slices, video shapes {key: (height, width)}, action slices) of an env's `record` group and action
+    terms; ValueError naming what is missing."""
+    from agile.rl_env.managers.term_cfg import SceneEntityCfg, index_list
+    from agile.run.lerobot_dataset import Slices
+
+    manager = env.observation_manager
+    if RECORD_GROUP not in manager.group_cfgs:
+        raise ValueError(f"task '{env.task_name}' has no '{RECORD_GROUP}' observation group: it is not a recording "
+                         f"task (its groups: {sorted(manager.group_cfgs)})")
+    parts, names, videos = [], [], {}
+    for name, shape in manager.term_shapes[RECORD_GROUP].items():
+        if len(shape) == 3:
+            videos[name] = (shape[0], shape[1])
+            continue
+        dim = shape[0]
+        term_names = [f"{name}_{i}" for i in range(dim)]
+        asset_cfg = manager.term_cfgs[RECORD_GROUP][name].params.get("asset_cfg")
+        if isinstance(asset_cfg, SceneEntityCfg) and asset_cfg.joint_names is not None:
+            entity = env.scene[asset_cfg.name]
+            joints = [entity.joint_names[i] for i in index_list(asset_cfg.joint_ids, entity.num_joints)]
+            if len(joints) == dim:
+                term_names = [f"{name}.{joint}" for joint in joints]
+        parts.append((name, dim))
+        names += term_names
+    if not videos:
+        raise ValueError(f"task '{env.task_name}': the '{RECORD_GROUP}' group has no image term to record")
+    action_parts, action_names = [], []
+    for name, term in env.action_manager.terms.items():
+        term_names, _ = term.demonstration_action()
+        action_parts.append((name, len(term_names)))
+        action_names += [f"{name}.{n}" for n in term_names]
+    return Slices(parts, names), videos, Slices(action_parts, action_names)
+
+
+def randomise_light(env, generator) -> None:
+    """Every camera's light: from a random direction 30-80 degrees above the horizon, 0.6-1.2 of full brightness."""
+    import torch
+
+    elevation = math.radians(30.0 + 50.0 * float(torch.rand(1, generator=generator)))
+    azimuth = 2.0 * math.pi * float(torch.rand(1, generator=generator))
+    brightness = 0.6 + 0.6 * float(torch.rand(1, generator=generator))
+    direction = (-math.cos(elevation) * math.cos(azimuth), -math.cos(elevation) * math.sin(azimuth),
+                 -math.sin(elevation))
+    for camera in env.scene.cameras.values():
+        camera.set_light(direction, (brightness,) * 3)
+
+
+def record(env, policy, writer, num_episodes: int, randomise_lights: bool = True, seed: int = 0,
+           progress=print) -> dict:
+    """Run `policy` in `env` until `num_episodes` episodes are written by `writer`; returns the counts and speed."""
+    import torch
+
+    manager = env.observation_manager
+    shapes = manager.term_shapes[RECORD_GROUP]
+    vector_terms = [name for name, shape in shapes.items() if len(shape) == 1]
+    image_terms = [name for name, shape in shapes.items() if len(shape) == 3]
+    generator = torch.Generator().manual_seed(seed)
+    obs = env.obs_buf
+    written, frames, steps = 0, 0, 0
+    start = time.perf_counter()
+    with torch.inference_mode():
+        while written < num_episodes:
+            if randomise_lights and steps % LIGHT_CHANGE_STEPS == 0:
+                randomise_light(env, generator)
+                obs = env.observation_manager.compute()  # the images under the new light
+            recorded = obs[RECORD_GROUP]
+            state = torch.cat([recorded[name].float() for name in vector_terms], dim=-1).cpu().numpy()
+            images = {name: recorded[name].cpu().numpy() for name in image_terms}
+            action = policy(obs)
+            obs, reward, terminated, truncated, _ = env.step(action)
+            demonstration = torch.cat([term.demonstration_action()[1] for term in env.action_manager.terms.values()],
+                                      dim=-1).cpu().numpy()
+            done = (terminated | truncated).cpu().numpy()
+            reward = reward.cpu().numpy()
+            for i in range(env.num_envs):
+                writer.add_frame(i, state[i], demonstration[i], reward[i], done[i],
+                                 {name: image[i] for name, image in images.items()})
+            frames += env.num_envs
+            steps += 1
+            for i in done.nonzero()[0]:
+                if written < num_episodes:
+                    index = writer.end_episode(int(i))
+                    written += 1
+                    how = "time-out" if bool(truncated[i]) else "terminated"
+                    progress(f"[agile] episode {index + 1}/{num_episodes} written (env {i}, "
+                             f"{writer.episodes[index]['length']} frames, {how})")
+                else:
+                    writer.drop_episode(int(i))
+    writer.close()
+    seconds = time.perf_counter() - start
+    return {"episodes": written, "frames_written": writer.total_frames, "frames_rendered": frames,
+            "seconds": seconds, "frames_per_s": frames / seconds}
+
+
+def main(argv=None) -> None:
+    parser = cli.new_parser(__doc__)
+    cli.add_common_args(parser)
+    parser.add_argument("--checkpoint", default=None,
+                        help="RSL-RL checkpoint of the task's policy (default: the shipped policy)")
+    parser.add_argument("--num_episodes", type=int, required=True, help="episodes to write")
+    parser.add_argument("--out", required=True, help="a new folder for the dataset (never overwritten)")
+    parser.add_argument("--task_description", default=None,
+                        help="the language annotation of every episode (default: the task's)")
+    parser.add_argument("--fixed_light", action="store_true", help="keep the scene's light as it is")
+    cli.add_checkpoint_args(parser)
+    args = cli.parse(parser, argv)
+    missing = [name for name in ("av", "pyarrow") if importlib.util.find_spec(name) is None]
+    if missing:
+        cli.fail(f"agile record writes videos and parquet files with {' and '.join(missing)}: "
+                 "pip install 'agile[record]'")
+    if os.path.exists(args.out):
+        cli.fail(f"--out {args.out} exists: give a new folder (a dataset is never written over another)")
+
+    import agile.tasks
+    from agile.run.lerobot_dataset import LeRobotDatasetWriter
+    from agile.run.policy import inference_cfg
+
+    try:
+        spec = agile.tasks.task_spec(args.task)
+    except KeyError as err:
+        cli.fail(err.args[0])
+    if agile.tasks.task_kind(args.task) != "record":
+        recording = [t for t in agile.tasks.registered_tasks() if agile.tasks.task_kind(t) == "record"]
+        cli.fail(f"{args.task} is not a recording task; recording tasks: {', '.join(recording)}")
+    checkpoint = args.checkpoint or cli.shipped_policy(args)
+    if checkpoint is None:
+        cli.fail(f"no --checkpoint given and agile ships no policy for {args.task} (the policy of "
+                 f"{spec.kwargs.get('shipped_policy', args.task)})")
+    contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint)
+    env_cfg, agent_cfg, device = cli.load_task(args)
+    env = cli.make_env(args.task, inference_cfg(env_cfg), device, use_cache=not args.no_cache)
+    try:
+        state, videos, action = recording_layout(env)
+    except ValueError as err:
+        cli.fail(str(err))
+    policy = cli.load_policy(contents, env, agent_cfg)
+    description = args.task_description or spec.kwargs.get("task_description", args.task)
+    writer = LeRobotDatasetWriter(args.out, fps=round(1.0 / env.step_dt), task_description=description,
+                                  robot_type=spec.kwargs.get("robot_type", "robot"), state=state, action=action,
+                                  video_shapes=videos, streams=env.num_envs)
+    print(f"[agile] recording {args.num_episodes} episodes of {args.task} with {checkpoint} into {args.out} "
+          f"({env.num_envs} envs, {round(1.0 / env.step_dt)} fps, videos {', '.join(videos)})", flush=True)
+    result = record(env, policy, writer, args.num_episodes, randomise_lights=not args.fixed_light,
+                    seed=env_cfg.seed if env_cfg.seed is not None else 0,
+                    progress=lambda line: print(line, flush=True))
+    print(f"[agile] wrote {result['episodes']} episodes, {result['frames_written']} frames in "
+          f"{result['seconds']:.1f} s ({result['frames_per_s']:.1f} frames/s rendered and encoded over "
+          f"{env.num_envs} envs): {args.out}")
+    env.close()
