@@ -16,6 +16,7 @@ from agile.rl_env.rsl_rl.leapp_bundle import SUPPORTED_OBSERVATIONS, DeployGraph
 from agile.run import sim2mujoco
 from agile.run.env import build_env
 from agile.run.export import export, export_leapp
+from agile.run.mujoco_commands import make_commands
 from agile.run.fingerprint import shipped_policies
 from agile.run.policy import inference_cfg, load_runner
 from agile.utils.config import apply_overrides
@@ -61,8 +62,8 @@ def test_the_bundle_gives_the_torchscript_policys_targets_on_the_same_states(exp
     walking, shadow = sim2mujoco.Robot(descriptor, model), sim2mujoco.Robot(descriptor, model)
     torchscript = sim2mujoco.DescriptorPolicy(descriptor, walking, paths["jit"])
     leapp_runtime = sim2mujoco.BundlePolicy(str(bundle), shadow)
-    command = np.array([0.4, 0.0, 0.3, 0.7][:sim2mujoco.CommandSampler(
-        next(iter(descriptor["commands"].values())), np.random.default_rng(0)).dim])
+    command = np.array([0.4, 0.0, 0.3, 0.7][:make_commands(
+        next(iter(descriptor["commands"].values())), np.random.default_rng(0), descriptor["control_dt_s"]).dim])
     worst_rad = 0.0
     for episode_steps in (60, 40):
         mujoco.mj_resetData(model, data)

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 from agile.run import common as cli
+from agile.run.mujoco_commands import make_commands
 from agile.run.mujoco_policy import (BundlePolicy, DescriptorPolicy, OnnxPolicy, TorchScriptPolicy,  # noqa: F401
                                      bundle_descriptor, read_bundle, rotate_inverse, yaml_load)
 
@@ -102,32 +103,11 @@ class Robot:
         return np.clip(tau, tau_min, tau_max)
 
 
-class CommandSampler:
-    """Draws an episode's command as the training command term did, from the descriptor's "commands" entry:
-    (vx, vy, wz) uniform in the ranges, or for a velocity-and-height command (a `base_height_m` range) either
-    standing still at a uniform height (a `rel_standing_envs` share) or walking at `default_height_m`."""
-
-    def __init__(self, spec: dict, rng: np.random.Generator):
-        self.ranges = spec["ranges"]
-        self.params = spec.get("params", {})
-        self.rng = rng
-        self.has_height = "base_height_m" in self.ranges
-        self.dim = 4 if self.has_height else 3
-        self.lowest_height_m = self.ranges["base_height_m"][0] if self.has_height else math.inf
-
-    def __call__(self) -> list[float]:
-        velocity = [self.rng.uniform(*self.ranges[k]) for k in ("lin_vel_x", "lin_vel_y", "ang_vel_z")]
-        if not self.has_height:
-            return velocity
-        if self.rng.uniform() < self.params.get("rel_standing_envs", 0.0):
-            return [0.0, 0.0, 0.0, self.rng.uniform(*self.ranges["base_height_m"])]
-        return [*velocity, self.params.get("default_height_m", self.ranges["base_height_m"][1])]
-
-
 def run(descriptor: dict, mjcf: str, make_policy, episodes: int, duration_s: float, command=None,
-        seed: int = 0, on_frame=None) -> dict:
+        seed: int = 0, on_frame=None, height_ramp=None) -> dict:
     """`make_policy(robot)` gives the controller (DescriptorPolicy or BundlePolicy): reset() at the start of an
-    episode, then once per control step it sets the robot's joint targets from the MuJoCo state and the command."""
+    episode, then once per control step it sets the robot's joint targets from the MuJoCo state and the command
+    (`agile.run.mujoco_commands`: drawn as in training, `command` fixed, or a `height_ramp` (top, bottom))."""
     import mujoco
 
     rng = np.random.default_rng(seed)
@@ -135,12 +115,13 @@ def run(descriptor: dict, mjcf: str, make_policy, episodes: int, duration_s: flo
     data = mujoco.MjData(model)
     robot = Robot(descriptor, model)
     policy = make_policy(robot)
-    draw_command = CommandSampler(next(iter(descriptor["commands"].values())), rng)
+    commands = make_commands(next(iter(descriptor["commands"].values())), rng, descriptor["control_dt_s"], command,
+                             height_ramp)
     decimation = descriptor["decimation"]
     steps = int(round(duration_s / descriptor["control_dt_s"]))
-    falls, lin_errors, ang_errors, height_errors, lengths = 0, [], [], [], []
+    falls, lengths = 0, []
     # a fall: tilted over, or the root below half its lowest commanded height (a crouch is not a fall)
-    fall_height_m = FALL_HEIGHT_FRACTION * min(descriptor["default_root_height_m"], draw_command.lowest_height_m)
+    fall_height_m = FALL_HEIGHT_FRACTION * min(descriptor["default_root_height_m"], commands.lowest_height_m)
     for _ in range(episodes):
         mujoco.mj_resetData(model, data)
         data.qpos[2] = descriptor["default_root_height_m"]
@@ -148,33 +129,23 @@ def run(descriptor: dict, mjcf: str, make_policy, episodes: int, duration_s: flo
         robot.target = robot.default_q.copy()
         mujoco.mj_forward(model, data)
         policy.reset()
-        cmd = np.array(command if command is not None else draw_command())
-        if len(cmd) != draw_command.dim:
-            raise ValueError(f"--command has {len(cmd)} values; the policy's command has {draw_command.dim}")
+        commands.start_episode(steps)
         for step in range(steps):
-            policy(data, cmd)
+            policy(data, commands.command(step))
             for _ in range(decimation):
                 data.qfrc_applied[robot.dof_adr] = robot.torque(data.qpos[robot.qpos_adr], data.qvel[robot.dof_adr])
                 mujoco.mj_step(model, data)
             if on_frame is not None:
                 on_frame(model, data)
-            v_b = robot.root_lin_vel_b(data)
-            lin_errors.append(float(np.linalg.norm(cmd[:2] - v_b[:2])))
-            ang_errors.append(float(abs(cmd[2] - data.qvel[5])))
-            if draw_command.dim == 4:  # the base height above the ground plane
-                height_errors.append(float(abs(cmd[3] - data.qpos[2])))
+            commands.measure(model, data, robot, step)
             gravity_z = rotate_inverse(data.qpos[3:7], np.array([0.0, 0.0, -1.0]))[2]
             tilt = math.acos(max(-1.0, min(1.0, -gravity_z)))
-            if tilt > FALL_TILT_RAD or data.qpos[2] < fall_height_m:
+            if commands.ends_at_a_fall and (tilt > FALL_TILT_RAD or data.qpos[2] < fall_height_m):
                 falls += 1
                 break
         lengths.append((step + 1) * descriptor["control_dt_s"])
-    metrics = {"episodes": episodes, "falls": falls, "fall_rate": falls / episodes,
-               "lin_vel_error_mps": float(np.mean(lin_errors)), "ang_vel_error_radps": float(np.mean(ang_errors)),
-               "mean_episode_length_s": float(np.mean(lengths))}
-    if height_errors:
-        metrics["base_height_error_m"] = float(np.mean(height_errors))
-    return metrics
+    return {"episodes": episodes, "falls": falls, "fall_rate": falls / episodes, **commands.metrics(),
+            "mean_episode_length_s": float(np.mean(lengths))}
 
 
 def default_mjcf(descriptor: dict) -> str:
@@ -229,7 +200,11 @@ def main(argv=None) -> None:
     parser.add_argument("--episodes", type=int, default=3, help="episodes to run, each from the default pose")
     parser.add_argument("--duration_s", type=float, default=10.0, help="length of each episode [s]")
     parser.add_argument("--command", type=float, nargs="+", default=None, metavar="V",
-                        help="fixed command VX VY WZ [HEIGHT] (default: drawn per episode as in training)")
+                        help="fixed command VX VY WZ [HEIGHT], or one HEIGHT for a height command (default: drawn "
+                             "per episode as in training)")
+    parser.add_argument("--height_ramp", type=float, nargs=2, default=None, metavar=("TOP", "BOTTOM"),
+                        help="a height command going TOP -> BOTTOM -> TOP over each episode, held at TOP for its last "
+                             "second; reports the height error and the final height (HeightTracking-G1)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the commands drawn per episode")
     parser.add_argument("--out", default=None, help="write the metrics as JSON here")
     parser.add_argument("--video", default=None, metavar="PATH.mp4",
@@ -260,7 +235,9 @@ def main(argv=None) -> None:
     video = MujocoVideo(args.video, mjcf, round(1.0 / descriptor["control_dt_s"])) if args.video else None
     try:
         metrics = run(descriptor, mjcf, make_policy, args.episodes, args.duration_s, args.command, args.seed,
-                      on_frame=video)
+                      on_frame=video, height_ramp=args.height_ramp)
+    except ValueError as err:
+        cli.fail(str(err))
     finally:
         if video is not None:
             video.close()

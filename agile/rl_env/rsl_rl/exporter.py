@@ -64,6 +64,13 @@ def _policy_interface(actor_cfg) -> dict:
     return interface
 
 
+def _plain(value) -> bool:
+    """A number, flag, name or tuple of numbers: a command parameter another simulator can use."""
+    if isinstance(value, tuple):
+        return all(isinstance(v, (int, float)) for v in value)
+    return isinstance(value, (int, float, bool, str))
+
+
 def io_descriptor(env, agent_cfg) -> dict:
     """The IO descriptor of a policy trained on `env` (a ManagerBasedRLEnv) with `agent_cfg`."""
     robot = env.scene[env.action_manager.policy_entity_name()]
@@ -91,8 +98,8 @@ def io_descriptor(env, agent_cfg) -> dict:
         commands[name] = {"type": type(term).__name__,
                           "ranges": {k: list(v) for k, v in vars(ranges).items()} if ranges is not None else None,
                           # how the command is drawn (standing share, walking height, ...), to draw alike elsewhere
-                          "params": {k: v for k, v in vars(term.cfg).items()
-                                     if isinstance(v, (int, float, bool)) and not isinstance(v, type)}}
+                          "params": {k: list(v) if isinstance(v, tuple) else v for k, v in vars(term.cfg).items()
+                                     if _plain(v) and k != "ranges"}}
     return {
         "version": IO_DESCRIPTOR_VERSION,
         "task": env.task_name,
