@@ -4,3 +4,8 @@ adaptive lift, terrain levels by standing at the time-out)."""
 from agile.rl_env.mdp import *  # noqa: F401,F403
 from agile.tasks.stand_up.mdp.curriculums import *  # noqa: F401,F403
 from agile.tasks.stand_up.mdp.rewards import *  # noqa: F401,F403
+
+from agile.rl_env import mdp as _generic  # noqa: E402
+from agile.tasks.stand_up.mdp import curriculums as _curriculums, rewards as _rewards  # noqa: E402
+
+__all__ = sorted({*_generic.__all__, *_curriculums.__all__, *_rewards.__all__})
