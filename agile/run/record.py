@@ -88,13 +88,12 @@ def record(env, policy, writer, num_episodes: int, randomise_lights: bool = True
     start = time.perf_counter()
     with torch.inference_mode():
         while written < num_episodes:
-            if randomise_lights and steps % LIGHT_CHANGE_STEPS == 0:
-                randomise_light(env, generator)
-                obs = env.observation_manager.compute()  # the images under the new light
             recorded = obs[RECORD_GROUP]
             state = torch.cat([recorded[name].float() for name in vector_terms], dim=-1).cpu().numpy()
             images = {name: recorded[name].cpu().numpy() for name in image_terms}
             action = policy(obs)
+            if randomise_lights and steps % LIGHT_CHANGE_STEPS == 0:  # the frames from the next step on
+                randomise_light(env, generator)
             obs, reward, terminated, truncated, _ = env.step(action)
             demonstration = torch.cat([term.demonstration_action()[1] for term in env.action_manager.terms.values()],
                                       dim=-1).cpu().numpy()
