@@ -59,6 +59,23 @@ def test_missed_criteria():
                            {"not_standing_at_time_out": 0.1}) == []
     assert missed_criteria({"command_metrics": {"motion/joint_pos_error_rad": 0.2}},
                            {"motion/joint_pos_error_rad": 0.1}) == ["motion/joint_pos_error_rad 0.2 > 0.1"]
+    # minima: shares of success (the cube lifted), missed below them or when not measured
+    minima = {"reference/object_lifted": 0.8}
+    assert missed_criteria({"episode_metrics": {"reference/object_lifted": 0.9}}, {}, minima) == []
+    assert missed_criteria({"episode_metrics": {"reference/object_lifted": 0.5}}, {}, minima) == [
+        "reference/object_lifted 0.5 < 0.8"]
+    assert missed_criteria({}, {}, minima) == ["reference/object_lifted not measured (minimum 0.8)"]
+
+
+def test_pick_place_and_height_tracking_carry_their_issues_figures():
+    from agile.tasks.catalogue import task_entry
+
+    pick_place = task_entry("PickPlace-G1-v0")
+    assert pick_place.criteria == {"fall_rate": 0.05, "reference/joint_pos_error_rad": 0.1}
+    assert pick_place.minima == {"reference/object_lifted": 0.8, "reference/object_at_goal": 0.6}
+    assert (pick_place.eval_settings["num_envs"], pick_place.eval_settings["episode_length_s"]) == (256, 8.0)
+    height = task_entry("HeightTracking-G1-v0")
+    assert height.criteria == {"fall_rate": 0.05, "height/height_error_m": 0.05} and not height.minima
 
 
 # What agile/tasks/velocity/t1/velocity_env_cfg.py and g1/velocity_history_env_cfg.py set differently (the shared

@@ -89,14 +89,14 @@ def evaluate_task(entry, args) -> dict:
     settings["overrides"] = overrides
     return {"task": entry.task, "kind": entry.kind, "checkpoint": checkpoint, "device": device,
             "device_name": device_name(device), "commit": source_commit(), **settings,
-            "criteria": entry.criteria, "criteria_checked": full_setting, **metrics}
+            "criteria": entry.criteria, "minima": entry.minima, "criteria_checked": full_setting, **metrics}
 
 
 def verdict(result: dict) -> tuple[str, list[str]]:
     """('pass' | 'FAIL' | 'not checked', the criteria missed)."""
     from agile.tasks.catalogue import missed_criteria
 
-    missed = missed_criteria(result, result["criteria"])
+    missed = missed_criteria(result, result["criteria"], result.get("minima"))
     if not result["criteria_checked"]:
         return "not checked", missed
     return ("FAIL" if missed else "pass"), missed
@@ -122,8 +122,10 @@ def report_markdown(results: list[dict], plots: list[str]) -> str:
                      f"{r['episode_length_s']:g} s | {r['fall_rate']:.3f} | {' | '.join(errors)} | "
                      f"{r['mean_episode_length_s']:.2f} | {state}"
                      + (f": {'; '.join(missed)}" if missed and state == "FAIL" else "") + " |")
-    lines += ["", "Criteria (maxima) per task:", ""]
-    lines += [f"- {r['task']}: " + ", ".join(f"{k} <= {v:g}" for k, v in r["criteria"].items()) for r in results]
+    lines += ["", "Criteria per task:", ""]
+    lines += [f"- {r['task']}: " + ", ".join([*(f"{k} <= {v:g}" for k, v in r["criteria"].items()),
+                                              *(f"{k} >= {v:g}" for k, v in r.get("minima", {}).items())])
+              for r in results]
     lines += ["", "Reward per step of each term:", ""]
     for r in results:
         terms = ", ".join(f"{k} {v:+.4f}" for k, v in r["reward_per_step"].items())

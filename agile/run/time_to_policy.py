@@ -76,12 +76,13 @@ def evaluator(args, device: str):
     return run
 
 
-def criteria_of(args) -> dict:
-    """The task's criteria from the catalogue, or those given as --criterion NAME=MAX."""
+def criteria_of(args) -> tuple[dict, dict]:
+    """(maxima, minima): the task's criteria from the catalogue, or the maxima given as --criterion NAME=MAX."""
     from agile.tasks.catalogue import task_entry
 
     if not args.criterion:
-        return dict(task_entry(args.task).criteria)
+        entry = task_entry(args.task)
+        return dict(entry.criteria), dict(entry.minima)
     criteria = {}
     for spec in args.criterion:
         name, _, value = spec.partition("=")
@@ -89,7 +90,7 @@ def criteria_of(args) -> dict:
             criteria[name] = float(value)
         except ValueError:
             cli.fail(f"--criterion takes NAME=MAXIMUM, e.g. fall_rate=0.05; got '{spec}'")
-    return criteria
+    return criteria, {}
 
 
 def wait_for_first_iteration(log_path: Path, process, start: float, budget_s: float) -> float | None:
@@ -101,7 +102,7 @@ def wait_for_first_iteration(log_path: Path, process, start: float, budget_s: fl
     return None
 
 
-def run_until_criteria(args, criteria: dict, device: str, log_root: str, log_path: Path) -> dict:
+def run_until_criteria(args, criteria: dict, minima: dict, device: str, log_root: str, log_path: Path) -> dict:
     from agile.tasks.catalogue import missed_criteria
 
     evaluations, evaluate = [], None
@@ -126,7 +127,7 @@ def run_until_criteria(args, criteria: dict, device: str, log_root: str, log_pat
             if evaluate is None:
                 evaluate = evaluator(args, device)
             metrics = evaluate(path)
-            missed = missed_criteria(metrics, criteria)
+            missed = missed_criteria(metrics, criteria, minima)
             evaluated = iteration
             row = {"iteration": iteration, "wall_s": round(written_s, 1), "met": not missed, "missed": missed,
                    **{k: metrics[k] for k in CURVE_METRICS if k in metrics}, "episodes": metrics.get("episodes")}
@@ -142,7 +143,7 @@ def run_until_criteria(args, criteria: dict, device: str, log_root: str, log_pat
             os.killpg(process.pid, signal.SIGTERM)
             process.wait(timeout=60)
     return {"task": args.task, "gpus": args.gpus, "num_envs_per_gpu": args.num_envs, "budget_s": args.budget_s,
-            "criteria": criteria, "first_iteration_s": None if first_iteration_s is None else round(first_iteration_s, 1),
+            "criteria": criteria, "minima": minima, "first_iteration_s": None if first_iteration_s is None else round(first_iteration_s, 1),
             "time_to_policy_s": met_at["wall_s"] if met_at else None,
             "iteration_at_criteria": met_at["iteration"] if met_at else None, "evaluations": evaluations}
 
@@ -196,10 +197,10 @@ def main(argv=None) -> int:
         cli.fail("--gpus and --save_interval must be at least 1 and --budget_s positive")
     device, _ = cli.resolve_device(args.device if args.gpus == 1 else "cuda:0")
     args.device = device
-    criteria = criteria_of(args)
+    criteria, minima = criteria_of(args)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="agile_time_to_policy_") as log_root:
-        result = run_until_criteria(args, criteria, device, log_root, Path(f"{args.out}.log"))
+        result = run_until_criteria(args, criteria, minima, device, log_root, Path(f"{args.out}.log"))
     from agile.run.eval_all import source_commit
 
     result.update(device=device, commit=source_commit())

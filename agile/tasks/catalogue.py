@@ -1,8 +1,9 @@
 """The task catalogue: what each registered task is, what policy agile ships for it, and how that policy is
 evaluated. Derived from the gymnasium registry (no hand-kept list of IDs): a new registration appears here.
 
-A task's registration may set `eval_criteria` ({metric: maximum}) or `eval_settings` in its kwargs; otherwise
-the defaults below apply (the velocity-height defaults add the base-height error)."""
+A task's registration may set `eval_criteria` ({metric: maximum}), `eval_minima` ({metric: minimum}, for shares of
+success such as a cube lifted) or `eval_settings` in its kwargs; otherwise the defaults below apply (the velocity-height
+defaults add the base-height error)."""
 
 from __future__ import annotations
 
@@ -46,6 +47,8 @@ class TaskEntry:
     eval_settings: dict
     criteria: dict
     """{metric name of scripts/eval.py's evaluate: maximum allowed}."""
+    minima: dict = dataclasses.field(default_factory=dict)
+    """{metric name: minimum required}."""
 
 
 def _is_distilled(task: str) -> bool:
@@ -82,8 +85,10 @@ def task_entry(task: str) -> TaskEntry:
     criteria = dict(HEIGHT_CRITERIA if height else DEFAULT_CRITERIA if velocity else NO_VELOCITY_CRITERIA)
     criteria.update(kwargs.get("eval_criteria", {}))
     settings = {**DEFAULT_EVAL_SETTINGS, **kwargs.get("eval_settings", {})}
+    evaluated = kind in EVALUATED_KINDS
     return TaskEntry(task=task, kind=kind, policy=pretrained_policy(task), has_height_command=height,
-                     eval_settings=settings, criteria=criteria if kind in EVALUATED_KINDS else {})
+                     eval_settings=settings, criteria=criteria if evaluated else {},
+                     minima=dict(kwargs.get("eval_minima", {})) if evaluated else {})
 
 
 def catalogue() -> list[TaskEntry]:
@@ -99,16 +104,18 @@ def evaluated_tasks() -> list[TaskEntry]:
             if e.kind in EVALUATED_KINDS and e.policy is not None and e.policy.stem.split(".")[0] == e.task]
 
 
-def missed_criteria(metrics: dict, criteria: dict) -> list[str]:
-    """'metric value > maximum' for each criterion the metrics miss, looked up among eval.py's top-level metrics,
-    then its `episode_metrics`; a criterion whose metric is absent is a miss too (an eval that did not measure it
-    cannot pass it)."""
+def missed_criteria(metrics: dict, criteria: dict, minima: dict | None = None) -> list[str]:
+    """'metric value > maximum' (or '< minimum') for each criterion the metrics miss, looked up among eval.py's
+    top-level metrics, then its `episode_metrics`; a criterion whose metric is absent is a miss too (an eval that did
+    not measure it cannot pass it)."""
     episode_metrics = metrics.get("episode_metrics", metrics.get(LEGACY_EPISODE_METRICS_KEY, {}))
     missed = []
-    for name, maximum in criteria.items():
-        value = metrics.get(name, episode_metrics.get(name))
-        if value is None:
-            missed.append(f"{name} not measured (maximum {maximum})")
-        elif not value <= maximum:  # NaN misses
-            missed.append(f"{name} {value:.4g} > {maximum:g}")
+    for bounds, kind, within, sign in ((criteria, "maximum", lambda v, b: v <= b, ">"),
+                                       (minima or {}, "minimum", lambda v, b: v >= b, "<")):
+        for name, bound in bounds.items():
+            value = metrics.get(name, episode_metrics.get(name))
+            if value is None:
+                missed.append(f"{name} not measured ({kind} {bound})")
+            elif not within(value, bound):  # NaN misses
+                missed.append(f"{name} {value:.4g} {sign} {bound:g}")
     return missed
