@@ -231,13 +231,16 @@ def main(argv=None) -> None:
 
         def make_policy(robot):
             return DescriptorPolicy(descriptor, robot, args.policy)
+    try:  # --command and --height_ramp checked against the policy's command before anything runs
+        make_commands(next(iter(descriptor["commands"].values())), np.random.default_rng(args.seed),
+                      descriptor["control_dt_s"], args.command, args.height_ramp)
+    except ValueError as err:
+        cli.fail(str(err))
     mjcf = args.mjcf or default_mjcf(descriptor)
     video = MujocoVideo(args.video, mjcf, round(1.0 / descriptor["control_dt_s"])) if args.video else None
     try:
         metrics = run(descriptor, mjcf, make_policy, args.episodes, args.duration_s, args.command, args.seed,
                       on_frame=video, height_ramp=args.height_ramp)
-    except ValueError as err:
-        cli.fail(str(err))
     finally:
         if video is not None:
             video.close()
