@@ -38,14 +38,15 @@ def read_rows(dataset: Path, episode: int) -> dict:
     return pq.read_table(dataset / f"data/chunk-000/episode_{episode:06d}.parquet").to_pydict()
 
 
-def test_the_writer_makes_each_ended_episode_its_own_and_drops_the_unfinished(tmp_path):
+@pytest.mark.parametrize("encode_processes", [0, 2], ids=["inline", "two_processes"])
+def test_the_writer_makes_each_ended_episode_its_own_and_drops_the_unfinished(tmp_path, encode_processes):
     from agile.run.lerobot_dataset import LeRobotDatasetWriter, Slices
 
     root = tmp_path / "demos"
     writer = LeRobotDatasetWriter(root, fps=50, task_description="pick the cube", robot_type="g1",
                                   state=Slices([("a", 2), ("b", 1)], ["a0", "a1", "b0"]),
                                   action=Slices([("arm", 2)], ["j0", "j1"]), video_shapes={"image": (48, 64)},
-                                  streams=2)
+                                  streams=2, encode_processes=encode_processes)
     images = {0: [], 1: []}
     # stream 1 ends early (3 frames), stream 0 times out (5 frames), stream 1's next episode is cut by the stop
     for step in range(5):
@@ -87,6 +88,18 @@ def test_the_writer_makes_each_ended_episode_its_own_and_drops_the_unfinished(tm
     assert set(json.loads((meta / "stats.json").read_text())["action"]) == {"mean", "std", "min", "max", "q01", "q99"}
 
 
+def test_a_failing_encoder_process_is_reported_with_its_error(tmp_path):
+    from agile.run.video_encoders import ProcessEncoders
+
+    encoders = ProcessEncoders(fps=50, processes=1)
+    image = gradient(10)
+    encoders.frame(0, tmp_path / "missing_folder" / "a.mp4", image, 0)  # the worker cannot create this file
+    with pytest.raises(RuntimeError, match="video encod.*missing_folder"):
+        for index in range(1, 200):  # the pipe breaks once the worker has stopped
+            encoders.frame(0, tmp_path / "missing_folder" / "a.mp4", image, index)
+        encoders.close()
+
+
 def test_the_writer_refuses_an_existing_folder_and_odd_video_sizes(tmp_path):
     from agile.run.lerobot_dataset import LeRobotDatasetWriter, Slices
 
@@ -121,9 +134,9 @@ def dataset(checkpoint, tmp_path_factory):
     out = tmp_path_factory.mktemp("record") / "demos"
     code, stdout, stderr = run_command(
         "record", "--task", TASK, "--device", "cpu", "--num_envs", "3", "--num_episodes", "4", "--out", out,
-        "--checkpoint", checkpoint, *SMALL_CAMERA, f"env.episode_length_s={EPISODE_STEPS * 0.02}", cwd=ROOT)
+        "--checkpoint", checkpoint, "--encode_processes", "2", *SMALL_CAMERA, f"env.episode_length_s={EPISODE_STEPS * 0.02}", cwd=ROOT)
     assert code == 0, stdout[-2000:] + stderr[-2000:]
-    assert "episode 4/4 written" in stdout and "frames/s" in stdout
+    assert "episode 4/4 written" in stdout and "frames/s" in stdout and "encoded in 2 processes" in stdout
     return out
 
 

@@ -7,7 +7,7 @@ plus the per-episode statistics LeRobot's v2.1 readers and its v2.1 -> v3.0 conv
 
 Each env streams its own episode: rows are kept in memory, frames are encoded as they come (H.264, yuv420p,
 a key frame every 2 frames as LeRobot encodes, timestamps exactly i / fps from 0 in every episode, which is what the
-readers match video frames to rows by). An episode is written when it ends, whether by time-out or early, and gets
+readers match video frames to rows by), in this process or in worker processes (`agile.run.video_encoders`). An episode is written when it ends, whether by time-out or early, and gets
 the next episode index; an episode still running when the recording stops is dropped with its video.
 """
 
@@ -19,11 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
+from agile.run.video_encoders import InlineEncoders, ProcessEncoders
+
 CODEBASE_VERSION = "v2.1"
 CHUNK_SIZE = 1000
 DATA_PATH = "data/chunk-{episode_chunk:03d}/episode_{episode_index:06d}.parquet"
 VIDEO_PATH = "videos/chunk-{episode_chunk:03d}/{video_key}/episode_{episode_index:06d}.mp4"
-VIDEO_OPTIONS = {"crf": "18", "g": "2", "bf": "0", "preset": "veryfast"}
 IMAGE_STATS_EVERY = 10
 """Image statistics from every 10th frame, 4x subsampled (LeRobot also estimates them from a sample)."""
 
@@ -55,7 +56,7 @@ class Slices:
 class _Episode:
     """One env's episode in progress."""
 
-    videos: dict = field(default_factory=dict)  # key -> (container, stream, temporary path)
+    videos: dict = field(default_factory=dict)  # key -> the video's temporary path
     states: list = field(default_factory=list)
     actions: list = field(default_factory=list)
     rewards: list = field(default_factory=list)
@@ -64,10 +65,11 @@ class _Episode:
 
 
 class LeRobotDatasetWriter:
-    """Writes episodes into a new folder `root`; `streams` episodes are recorded at once (one per env)."""
+    """Writes episodes into a new folder `root`; `streams` episodes are recorded at once (one per env). Videos are
+    encoded in this process (`encode_processes` 0) or spread over that many worker processes."""
 
     def __init__(self, root: str | Path, fps: int, task_description: str, robot_type: str, state: Slices,
-                 action: Slices, video_shapes: dict[str, tuple[int, int]], streams: int):
+                 action: Slices, video_shapes: dict[str, tuple[int, int]], streams: int, encode_processes: int = 0):
         for key, (height, width) in video_shapes.items():
             if height % 2 or width % 2:
                 raise ValueError(f"video '{key}' is {width} x {height}: H.264 in yuv420p needs even sizes")
@@ -86,6 +88,9 @@ class LeRobotDatasetWriter:
         self._open: list[_Episode | None] = [None] * streams
         self._temp = self.root / ".in_progress"
         self._temp.mkdir()
+        self._begun = 0
+        self._encoders = (ProcessEncoders(self.fps, encode_processes) if encode_processes > 0
+                          else InlineEncoders(self.fps))
 
     # -- per frame ----------------------------------------------------------------------------------
 
@@ -102,7 +107,7 @@ class LeRobotDatasetWriter:
         episode.rewards.append(float(reward))
         episode.dones.append(bool(done))
         for key, image in images.items():
-            self._encode(episode.videos[key], image, index)
+            self._encoders.frame(stream, episode.videos[key], image, index)
             if index % IMAGE_STATS_EVERY == 0:
                 _accumulate_image_stats(episode.image_sums, key, image[::4, ::4])
 
@@ -114,14 +119,10 @@ class LeRobotDatasetWriter:
         self._open[stream] = None
         index = len(self.episodes)
         chunk = index // CHUNK_SIZE
-        for key, (container, video, temp_path) in episode.videos.items():
-            for packet in video.encode():
-                container.mux(packet)
-            container.close()
+        for key, temp_path in episode.videos.items():
             path = self.root / VIDEO_PATH.format(episode_chunk=chunk, video_key=f"observation.images.{key}",
                                                  episode_index=index)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            temp_path.rename(path)
+            self._encoders.finish(stream, temp_path, path)
         columns = self._columns(episode, index)
         path = self.root / DATA_PATH.format(episode_chunk=chunk, episode_index=index)
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -139,14 +140,14 @@ class LeRobotDatasetWriter:
         episode = self._open[stream]
         self._open[stream] = None
         if episode is not None:
-            for container, _, temp_path in episode.videos.values():
-                container.close()
-                temp_path.unlink(missing_ok=True)
+            for temp_path in episode.videos.values():
+                self._encoders.drop(stream, temp_path)
 
     def close(self) -> None:
         """Drop the episodes in progress and write the metadata."""
         for stream in range(len(self._open)):
             self.drop_episode(stream)
+        self._encoders.close()
         self._temp.rmdir()
         meta = self.root / "meta"
         meta.mkdir(exist_ok=True)
@@ -160,26 +161,9 @@ class LeRobotDatasetWriter:
     # -- internals ----------------------------------------------------------------------------------
 
     def _begin(self, stream: int) -> _Episode:
-        import av
-
-        episode = _Episode()
-        for key, (height, width) in self.video_shapes.items():
-            temp_path = self._temp / f"stream{stream}_{key}.mp4"
-            container = av.open(str(temp_path), "w")
-            video = container.add_stream("libx264", rate=self.fps, options=dict(VIDEO_OPTIONS))
-            video.width, video.height, video.pix_fmt = width, height, "yuv420p"
-            episode.videos[key] = (container, video, temp_path)
-        return episode
-
-    @staticmethod
-    def _encode(video, image: np.ndarray, index: int) -> None:
-        import av
-
-        container, stream, _ = video
-        frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="rgb24")
-        frame.pts = index
-        for packet in stream.encode(frame):
-            container.mux(packet)
+        self._begun += 1  # a temporary name of its own: a worker may still be moving the stream's last video
+        return _Episode(videos={key: self._temp / f"stream{stream}_{self._begun}_{key}.mp4"
+                                for key in self.video_shapes})
 
     def _columns(self, episode: _Episode, index: int) -> dict[str, np.ndarray]:
         length = len(episode.states)

@@ -129,12 +129,17 @@ def main(argv=None) -> None:
     parser.add_argument("--task_description", default=None,
                         help="the language annotation of every episode (default: the task's)")
     parser.add_argument("--fixed_light", action="store_true", help="keep the scene's light as it is")
+    parser.add_argument("--encode_processes", type=int, default=None, metavar="N",
+                        help="encode the videos in N worker processes (0: in this one; default: one per env, at "
+                        "most the CPU cores less two)")
     cli.add_checkpoint_args(parser)
     args = cli.parse(parser, argv)
     missing = [name for name in ("av", "pyarrow") if importlib.util.find_spec(name) is None]
     if missing:
         cli.fail(f"agile record writes videos and parquet files with {' and '.join(missing)}: "
                  "pip install 'agile[record]'")
+    if args.encode_processes is not None and args.encode_processes < 0:
+        cli.fail(f"--encode_processes {args.encode_processes}: give 0 (encode in this process) or more")
     if os.path.exists(args.out):
         cli.fail(f"--out {args.out} exists: give a new folder (a dataset is never written over another)")
 
@@ -162,11 +167,15 @@ def main(argv=None) -> None:
         cli.fail(str(err))
     policy = cli.load_policy(contents, env, agent_cfg)
     description = args.task_description or spec.kwargs.get("task_description", args.task)
+    encode_processes = args.encode_processes
+    if encode_processes is None:
+        encode_processes = max(0, min(env.num_envs, (os.cpu_count() or 1) - 2))
     writer = LeRobotDatasetWriter(args.out, fps=round(1.0 / env.step_dt), task_description=description,
                                   robot_type=spec.kwargs.get("robot_type", "robot"), state=state, action=action,
-                                  video_shapes=videos, streams=env.num_envs)
+                                  video_shapes=videos, streams=env.num_envs, encode_processes=encode_processes)
     print(f"[agile] recording {args.num_episodes} episodes of {args.task} with {checkpoint} into {args.out} "
-          f"({env.num_envs} envs, {round(1.0 / env.step_dt)} fps, videos {', '.join(videos)})", flush=True)
+          f"({env.num_envs} envs, {round(1.0 / env.step_dt)} fps, videos {', '.join(videos)}, encoded "
+          f"{f'in {encode_processes} processes' if encode_processes else 'in this process'})", flush=True)
     result = record(env, policy, writer, args.num_episodes, randomise_lights=not args.fixed_light,
                     seed=env_cfg.seed if env_cfg.seed is not None else 0,
                     progress=lambda line: print(line, flush=True))
