@@ -176,6 +176,31 @@ def test_eval_reports_motion_tracking_errors(motion_env, tmp_path):
     assert metrics["episodes"] >= 2 and "fall_rate" in metrics
     assert all(0.0 < v < 1.0 for v in metrics["episode_metrics"].values()), metrics["episode_metrics"]
     assert "lin_vel_error_mps" not in metrics and metrics["error_by_command"] == {}  # no velocity command
+    assert "episodes_by_variant" not in metrics  # one motion: no kinds of episode
+
+
+def test_eval_breaks_outcomes_down_by_the_kind_of_episode_each_started_with():
+    from agile.run.eval import OutcomesByVariant
+
+    class Term:  # a command drawing one of two kinds of episode per env
+        ids = torch.tensor([0, 1, 1])
+
+        def episode_variants(self):
+            return ["a", "b"], self.ids
+
+    term = Term()
+    outcomes = OutcomesByVariant(term, ["m"])
+    # env 1 (kind b) falls with m = 2; its reset draws kind a
+    done = torch.tensor([False, True, False])
+    term.ids = torch.tensor([0, 0, 1])
+    outcomes.add(done, done, {"m": torch.tensor([0.0, 2.0, 0.0])})
+    # every episode times out: env 1's second episode counts for kind a
+    done = torch.ones(3, dtype=torch.bool)
+    outcomes.add(done, torch.zeros(3, dtype=torch.bool), {"m": torch.tensor([1.0, 3.0, 5.0])})
+    rows = {row["variant"]: row for row in outcomes.rows()}
+    assert (rows["a"]["episodes"], rows["a"]["falls"], rows["a"]["episode_metrics"]["m"]) == (2, 0, 2.0)
+    assert (rows["b"]["episodes"], rows["b"]["falls"], rows["b"]["fall_rate"]) == (2, 1, 0.5)
+    assert rows["b"]["episode_metrics"]["m"] == 3.5
 
 
 # -- pick and place ---------------------------------------------------------------------------------------------
@@ -239,3 +264,8 @@ def test_eval_reports_pick_place_success(pick_place_env, tmp_path):
     # 0.2 s episodes: the cube is still near its start, 8-15 cm from any trajectory's goal
     assert 0.05 < found["reference/object_goal_distance_m"] < 0.3
     assert "lin_vel_error_mps" not in metrics
+    # by trajectory: the kinds the episodes started with, every ended episode counted once
+    rows = metrics["episodes_by_variant"]["reference"]
+    assert {row["variant"] for row in rows} <= {"pick_place_left", "pick_place_near_left", "pick_place_right"}
+    assert sum(row["episodes"] for row in rows) == metrics["episodes"]
+    assert set(rows[0]["episode_metrics"]) == set(found)

@@ -12,7 +12,9 @@ Without --checkpoint the policy shipped with agile for the task is evaluated. Pr
 Velocity errors are measured for tasks with a velocity command, the height error (commanded minus measured above
 the terrain) for those with a base-height command; every task reports its episode metrics as means over the ended
 episodes under "episode_metrics": its command terms' (`CommandTerm.metrics`, "<term>/<name>": the motion-tracking
-errors, pick-and-place success) and its metric terms' (the env cfg's `metrics`, "<name>": the stand-up success).
+errors, pick-and-place success) and its metric terms' (the env cfg's `metrics`, "<name>": the stand-up success);
+a command that draws kinds of episode (pick-and-place: which trajectory) gets episodes, falls and those metrics per
+kind under "episodes_by_variant".
 JSON files written before these were merged have the command terms' under "command_metrics".
 """
 
@@ -82,6 +84,40 @@ class ErrorByCommand:
                 for i, (e, n) in enumerate(zip(self.error_sum.tolist(), self.steps.tolist())) if n > 0]
 
 
+class OutcomesByVariant:
+    """Episodes, falls and the episode metrics summed per kind of episode a command term draws (its
+    `episode_variants`, e.g. the trajectory), by the kind each episode started with: which kinds fail."""
+
+    def __init__(self, term, metric_keys):
+        import torch
+
+        self.term = term
+        self.names, ids = term.episode_variants()
+        self.start = ids.clone()  # each env's episode's kind, as drawn at its start
+        zeros = lambda: torch.zeros(len(self.names), device=ids.device)  # noqa: E731
+        self.episodes, self.falls = zeros(), zeros()
+        self.metrics = {key: zeros() for key in metric_keys}
+
+    def add(self, done, terminated, last_metrics: dict) -> None:
+        """After a step: count the episodes that ended, then note the kinds the reset envs drew."""
+        import torch
+
+        self.episodes.index_add_(0, self.start, done.float())
+        self.falls.index_add_(0, self.start, terminated.float())
+        for key, value in last_metrics.items():
+            self.metrics[key].index_add_(0, self.start, value * done)
+        self.start.copy_(torch.where(done, self.term.episode_variants()[1], self.start))
+
+    def rows(self) -> list[dict]:
+        """[{"variant", "episodes", "falls", "fall_rate", "episode_metrics"}] for the kinds that ended an episode."""
+        episodes, falls = self.episodes.tolist(), self.falls.tolist()
+        metrics = {key: value.tolist() for key, value in self.metrics.items()}
+        return [{"variant": name, "episodes": int(episodes[i]), "falls": int(falls[i]),
+                 "fall_rate": falls[i] / episodes[i],
+                 "episode_metrics": {key: values[i] / episodes[i] for key, values in metrics.items()}}
+                for i, name in enumerate(self.names) if episodes[i] > 0]
+
+
 def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = None, recorders=()) -> dict:
     """Sums per env over `num_episodes` episodes of every env: (N,) tensors of tracking errors over the steps
     alive (with a velocity command), steps alive, episodes ended, falls, ended episodes' lengths and the episode
@@ -110,6 +146,9 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
     by_speed = ErrorByCommand(SPEED_BIN_EDGES_MPS, env.device)
     by_height = ErrorByCommand(HEIGHT_BIN_EDGES_M, env.device)
     obs, _ = env.reset()
+    commands = env.command_manager.terms
+    by_variant = {name: OutcomesByVariant(term, last_metrics) for name, term in commands.items()
+                  if term.episode_variants() is not None}
     with torch.inference_mode():
         for step in range(num_episodes * env.max_episode_length):
             if command_name is not None:
@@ -140,11 +179,14 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
                 sums[f"ended_by/{name}"] += terminations.term_dones[name].float()
             for key, value in last_metrics.items():
                 sums[f"episode_metric/{key}"] += value * done
+            for outcomes in by_variant.values():
+                outcomes.add(done, terminated, last_metrics)
     by_command = {"lin_vel_error_mps_by_speed_mps": by_speed.rows()} if command_name is not None else {}
     if height_sensor is not None:
         by_command["base_height_error_m_by_height_m"] = by_height.rows()
     return {"sums": sums, "reward_totals": term_sums, "steps": num_episodes * env.max_episode_length,
-            "error_by_command": by_command}
+            "error_by_command": by_command,
+            "episodes_by_variant": {name: outcomes.rows() for name, outcomes in by_variant.items()}}
 
 
 def summarise(sums: dict, step_dt: float, mask=None) -> dict:
@@ -174,6 +216,8 @@ def evaluate(env, policy, num_episodes: int, command_name: str | None = None, re
     metrics["reward_per_step"] = {name: float(v) / (env.num_envs * result["steps"])
                                   for name, v in result["reward_totals"].items()}
     metrics["error_by_command"] = result["error_by_command"]
+    if result["episodes_by_variant"]:
+        metrics["episodes_by_variant"] = result["episodes_by_variant"]
     return metrics
 
 

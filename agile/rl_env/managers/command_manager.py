@@ -106,6 +106,12 @@ class CommandTerm:
         tracking); None for the others. Only recorders read it: it is not part of the MDP."""
         return None
 
+    def episode_variants(self) -> tuple[list[str], torch.Tensor] | None:
+        """The kinds of episode this command draws (e.g. which trajectory it follows): their names and each env's
+        current one, (N,) long indices into the names; None for a command without such kinds. Evaluation breaks
+        its outcomes down by them."""
+        return None
+
     def _resample(self, env_mask: torch.Tensor) -> None:
         raise NotImplementedError
 

@@ -192,6 +192,10 @@ class TrackingCommand(CommandTerm):
             self.env.sim.forward(env_mask)
             self.robot.update()
 
+    def episode_variants(self) -> tuple[list[str], torch.Tensor]:
+        """The trajectory files (as configured) and each env's."""
+        return list(self.cfg.trajectory_files), self.trajectory_ids
+
     def _update_command(self) -> None:
         self._command.copy_(self.joint_pos)
 
