@@ -95,6 +95,43 @@ def test_command_range_shares_and_settle_time(env_and_agent):
     env.reset()
 
 
+def test_the_command_error_eval_bins_is_the_metrics_error_on_the_steps_it_counts(env_and_agent):
+    from agile.run.eval import ErrorByCommand
+
+    env, _ = env_and_agent
+    command = env.command_manager.get_term("height")
+    command.target_height_m[:] = torch.tensor([0.5, -0.2, 0.5])  # env 1 asked to relax: no height to reach
+    command.steps_since_resample[:] = torch.tensor([101, 101, 0])  # env 2 not settled yet
+    sample = command.command_error()
+    assert (sample.error_name, sample.command_name) == ("height_error_m", "height_m")
+    torch.testing.assert_close(sample.error, (command.measured_height_m - command.target_height_m).abs())
+    assert sample.counted.tolist() == [True, False, False]
+    by_height = ErrorByCommand(sample.bin_edges, "cpu")
+    by_height.add(sample.commanded, sample.error, sample.counted.float())
+    rows = by_height.rows()
+    assert [row["command"] for row in rows] == [[0.4, 0.6]] and rows[0]["steps"] == 1
+    assert rows[0]["error"] == pytest.approx(float(sample.error[0]))
+    env.reset()
+
+
+def test_eval_reports_the_height_error_by_commanded_height(env_and_agent):
+    from agile.run.eval import evaluate
+
+    env, _ = env_and_agent
+    num_actions = env.action_manager.total_action_dim
+    torch.manual_seed(1)
+    metrics = evaluate(env, lambda obs: torch.zeros(env.num_envs, num_actions), num_episodes=1)
+    rows = metrics["error_by_command"]["height_error_m_by_height_m"]
+    assert rows and all(row["error"] >= 0.0 and row["steps"] > 0 for row in rows)
+    assert {tuple(row["command"]) for row in rows} <= {(0.0, 0.2), (0.2, 0.4), (0.4, 0.6), (0.6, 0.8), (0.8, 0.9),
+                                                         (0.9, None)}
+    # the same steps as the episode metric: their mean over the steps is the metric's mean over the episodes' steps
+    steps = sum(row["steps"] for row in rows)
+    mean = sum(row["error"] * row["steps"] for row in rows) / steps
+    assert 0.0 <= mean < 2.0
+    env.reset()
+
+
 def test_command_config_errors_name_the_field(env_and_agent):
     env, _ = env_and_agent
     from agile.rl_env import mdp

@@ -80,11 +80,15 @@ class EpisodeLog:
                 raise RuntimeError(f"episode log entries {new_names} first written after the step was captured")
             for k in new_names:
                 self.index[k] = len(self.index)
-            self.values = torch.cat((self.values, torch.zeros(len(new_names), device=self.device)))
+            # normal tensors even when the first such step runs under inference mode (an evaluation): an
+            # inference tensor could not be written by a later step outside it (training on the same env)
+            with torch.inference_mode(False):
+                self.values = torch.cat((self.values, torch.zeros(len(new_names), device=self.device)))
             self._ids.clear()
         ids = self._ids.get(names)
         if ids is None:
-            ids = self._ids[names] = torch.tensor([self.index[k] for k in names], device=self.device)
+            with torch.inference_mode(False):
+                ids = self._ids[names] = torch.tensor([self.index[k] for k in names], device=self.device)
         new = torch.stack([v.float() if isinstance(v, torch.Tensor) else torch.tensor(float(v), device=self.device)
                            for v in entries.values()])
         if hold_unless is not None:

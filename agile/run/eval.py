@@ -14,7 +14,8 @@ the terrain) for those with a base-height command; every task reports its episod
 episodes under "episode_metrics": its command terms' (`CommandTerm.metrics`, "<term>/<name>": the motion-tracking
 errors, pick-and-place success) and its metric terms' (the env cfg's `metrics`, "<name>": the stand-up success);
 a command that draws kinds of episode (pick-and-place: which trajectory) gets episodes, falls and those metrics per
-kind under "episodes_by_variant".
+kind under "episodes_by_variant"; a command that measures its own error (`CommandTerm.command_error`: the
+height-tracking command's) gets it by commanded value under "error_by_command" ("height_error_m_by_height_m").
 JSON files written before these were merged have the command terms' under "command_metrics".
 """
 
@@ -146,6 +147,12 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
     by_speed = ErrorByCommand(SPEED_BIN_EDGES_MPS, env.device)
     by_height = ErrorByCommand(HEIGHT_BIN_EDGES_M, env.device)
     obs, _ = env.reset()
+    command_errors = {}  # the errors the command terms measure themselves (a height command's), by command value
+    for term in env.command_manager.terms.values():
+        sample = term.command_error()
+        if sample is not None:
+            command_errors[f"{sample.error_name}_by_{sample.command_name}"] = (
+                term, ErrorByCommand(sample.bin_edges, env.device))
     commands = env.command_manager.terms
     by_variant = {name: OutcomesByVariant(term, last_metrics) for name, term in commands.items()
                   if term.episode_variants() is not None}
@@ -168,6 +175,9 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
                 sums["base_height_error_m"] += height_error * alive
                 by_height.add(command[:, 3], height_error, alive)
             sums["steps_alive"] += alive
+            for term, by_value in command_errors.values():
+                sample = term.command_error()
+                by_value.add(sample.commanded, sample.error, alive * sample.counted.float())
             for name in term_sums:
                 term_sums[name] += env.reward_manager.step_reward[name].sum()
             episode_steps += 1
@@ -184,6 +194,7 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
     by_command = {"lin_vel_error_mps_by_speed_mps": by_speed.rows()} if command_name is not None else {}
     if height_sensor is not None:
         by_command["base_height_error_m_by_height_m"] = by_height.rows()
+    by_command.update({key: by_value.rows() for key, (_, by_value) in command_errors.items()})
     return {"sums": sums, "reward_totals": term_sums, "steps": num_episodes * env.max_episode_length,
             "error_by_command": by_command,
             "episodes_by_variant": {name: outcomes.rows() for name, outcomes in by_variant.items()}}

@@ -48,6 +48,25 @@ def keep_episode_end(value: torch.Tensor, last: torch.Tensor, env_mask: torch.Te
 
 
 @dataclass(frozen=True)
+class CommandError:
+    """One step of how far the robot is from what a command asks, per env: what evaluation bins by the commanded
+    value (the height error by commanded height)."""
+
+    error_name: str
+    """The error's name with its unit ("height_error_m")."""
+    command_name: str
+    """The commanded value's name with its unit ("height_m")."""
+    commanded: torch.Tensor
+    """(N,) the commanded value."""
+    error: torch.Tensor
+    """(N,) the error."""
+    counted: torch.Tensor
+    """(N,) bool: the steps the error counts on (e.g. settled after a new command)."""
+    bin_edges: tuple[float, ...]
+    """Inner edges of the bins of the commanded value (from 0 up; the last bin is open)."""
+
+
+@dataclass(frozen=True)
 class ReferencePose:
     """The whole-body pose a command asks of one articulation, per env: what a recorder draws as a kinematic copy
     of the robot beside it (play.py --video_reference)."""
@@ -104,6 +123,11 @@ class CommandTerm:
     def reference_pose(self) -> ReferencePose | None:
         """The whole-body pose this command asks for at each env's current frame, for terms that hold one (motion
         tracking); None for the others. Only recorders read it: it is not part of the MDP."""
+        return None
+
+    def command_error(self) -> CommandError | None:
+        """This step's tracking error against the commanded value, for evaluation by command; None for commands
+        without one (a velocity command's errors are measured by eval.py from its `command_fields`)."""
         return None
 
     def episode_variants(self) -> tuple[list[str], torch.Tensor] | None:

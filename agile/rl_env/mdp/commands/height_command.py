@@ -19,10 +19,14 @@ from dataclasses import field
 import torch
 
 from agile.rl_env.managers import CommandTerm
+from agile.rl_env.managers.command_manager import CommandError
 from agile.utils.config import check_range, configclass
 from agile.utils.math import quat_rotate
 
 __all__ = ["SmoothHeightCommand", "SmoothHeightCommandCfg", "SmoothHeightRangesCfg"]
+
+HEIGHT_ERROR_BIN_EDGES_M = (0.2, 0.4, 0.6, 0.8, 0.9)
+"""Bins of the commanded height for evaluation: sitting low to crouching, then standing (0.92 m for G1)."""
 
 
 class SmoothHeightCommand(CommandTerm):
@@ -104,6 +108,12 @@ class SmoothHeightCommand(CommandTerm):
         if lowest_m >= 0.0:  # a config value: no negative commands, nothing to relax
             return torch.zeros_like(self.target_height_m)
         return (self.target_height_m / lowest_m).clamp(0.0, 1.0)
+
+    def command_error(self) -> CommandError:
+        """|measured - commanded| on the steps the `height_error_m` metric counts (settled, a command >= 0)."""
+        return CommandError("height_error_m", "height_m", self.target_height_m,
+                            (self.measured_height_m - self.target_height_m).abs(),
+                            self.settled & (self.target_height_m >= 0.0), HEIGHT_ERROR_BIN_EDGES_M)
 
     def _resample(self, env_mask: torch.Tensor) -> None:
         cfg, n, device = self.cfg, self.env.num_envs, self.env.device
