@@ -14,9 +14,11 @@ within a few levels of the rendered ones.
 from __future__ import annotations
 
 import json
+import queue
 import subprocess
 import sys
 import tempfile
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -72,24 +74,43 @@ class InlineEncoders:
 
 
 class ProcessEncoders:
-    """The same, spread over `processes` worker processes; every finished video is complete once `close` returns."""
+    """The same, spread over `processes` worker processes; every finished video is complete once `close` returns.
 
-    def __init__(self, fps: int, processes: int):
+    One feeding thread per worker writes its frames into its pipe (the write releases the GIL), so that the
+    recording process is not held up pushing every frame through one thread (236 MB per step at 256 envs of
+    640 x 480); each thread's queue holds at most `queued_frames` frames, which bounds the memory."""
+
+    def __init__(self, fps: int, processes: int, queued_frames: int = 8):
         if processes < 1:
             raise ValueError(f"processes: {processes}; give at least 1 (or encode inline)")
         self._errors = [tempfile.TemporaryFile() for _ in range(processes)]
         self._workers = [subprocess.Popen([sys.executable, "-m", "agile.run.video_encoders", str(int(fps))],
                                           stdin=subprocess.PIPE, stderr=errors) for errors in self._errors]
+        self._queues = [queue.Queue(maxsize=queued_frames) for _ in range(processes)]
+        self._stopped = [False] * processes  # a worker's pipe broke: it exited, its stderr says why
+        self._feeders = [threading.Thread(target=self._feed, args=(k,), daemon=True) for k in range(processes)]
+        for feeder in self._feeders:
+            feeder.start()
+
+    def _feed(self, k: int) -> None:
+        pipe = self._workers[k].stdin
+        while (item := self._queues[k].get()) is not None:
+            if self._stopped[k]:
+                continue  # drain, so that the recording process never blocks on a full queue
+            try:
+                for part in item:
+                    pipe.write(part)
+            except (BrokenPipeError, OSError):
+                self._stopped[k] = True
 
     def _send(self, stream: int, message: dict, payload: np.ndarray | None = None) -> None:
         k = stream % len(self._workers)
-        pipe = self._workers[k].stdin
-        try:
-            pipe.write(json.dumps(message).encode() + b"\n")
-            if payload is not None:
-                pipe.write(memoryview(np.ascontiguousarray(payload, dtype=np.uint8)).cast("B"))
-        except BrokenPipeError:
-            raise RuntimeError(f"video encoder process {k} stopped: {self._error_text(k)}") from None
+        if self._stopped[k]:
+            raise RuntimeError(f"video encoder process {k} stopped: {self._error_text(k)}")
+        parts = [json.dumps(message).encode() + b"\n"]
+        if payload is not None:
+            parts.append(memoryview(np.ascontiguousarray(payload, dtype=np.uint8)).cast("B"))
+        self._queues[k].put(parts)
 
     def frame(self, stream: int, path: Path, image: np.ndarray, index: int) -> None:
         self._send(stream, {"op": "frame", "path": str(path), "shape": list(image.shape), "index": index}, image)
@@ -101,11 +122,15 @@ class ProcessEncoders:
         self._send(stream, {"op": "drop", "path": str(path)})
 
     def close(self) -> None:
+        for q in self._queues:
+            q.put(None)
+        for feeder in self._feeders:
+            feeder.join()
         failed = []
         for k, worker in enumerate(self._workers):
             try:
                 worker.stdin.close()
-            except BrokenPipeError:
+            except (BrokenPipeError, OSError):
                 pass
             if worker.wait() != 0:
                 failed.append(f"process {k}: {self._error_text(k)}")
