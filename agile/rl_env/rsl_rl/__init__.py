@@ -1,11 +1,12 @@
 """RSL-RL integration: VecEnv wrapper and runner configs."""
 
-from agile.rl_env.rsl_rl.runner_cfg import (DistillationAlgorithmCfg, DistillationRunnerCfg, DistributionCfg,
-                                            MlpModelCfg, PpoAlgorithmCfg, PpoRunnerCfg, RnnModelCfg, RunnerCfg,
-                                            is_distillation, make_recurrent, policy_model_cfg, policy_obs_set,
-                                            policy_state_key, to_rsl_rl_dict)
+from agile.rl_env.rsl_rl.runner_cfg import (AnnealedPpoAlgorithmCfg, DistillationAlgorithmCfg, DistillationRunnerCfg,
+                                            DistributionCfg, EntropyAnnealingCfg, MlpModelCfg, PpoAlgorithmCfg,
+                                            PpoRunnerCfg, RnnModelCfg, RunnerCfg, is_distillation, make_recurrent,
+                                            policy_model_cfg, policy_obs_set, policy_state_key, to_rsl_rl_dict)
 from agile.rl_env.rsl_rl.vecenv_wrapper import RslRlVecEnvWrapper, flatten_groups
 
-__all__ = ["DistillationAlgorithmCfg", "DistillationRunnerCfg", "RunnerCfg", "is_distillation", "policy_model_cfg",
-           "policy_obs_set", "policy_state_key", "DistributionCfg", "MlpModelCfg", "PpoAlgorithmCfg", "PpoRunnerCfg", "RnnModelCfg", "RslRlVecEnvWrapper",
-           "flatten_groups", "make_recurrent", "to_rsl_rl_dict"]
+__all__ = ["AnnealedPpoAlgorithmCfg", "DistillationAlgorithmCfg", "DistillationRunnerCfg", "DistributionCfg",
+           "EntropyAnnealingCfg", "MlpModelCfg", "PpoAlgorithmCfg", "PpoRunnerCfg", "RnnModelCfg", "RslRlVecEnvWrapper",
+           "RunnerCfg", "flatten_groups", "is_distillation", "make_recurrent", "policy_model_cfg", "policy_obs_set",
+           "policy_state_key", "to_rsl_rl_dict"]

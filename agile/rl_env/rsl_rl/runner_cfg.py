@@ -59,6 +59,40 @@ class PpoAlgorithmCfg:
 
 
 @configclass
+class EntropyAnnealingCfg:
+    """AGILE's entropy-coefficient annealing (`agile.rl_env.rsl_rl.entropy_annealing`): from `start_iteration` on,
+    each iteration whose ended episodes lasted on average more than `min_episode_length_share` of the episode
+    length multiplies the coefficient by `decay_per_iteration`, down to `min_entropy_coef`. AGILE states the start
+    as a share of its runner's max_iterations; here it is the iteration itself, so that a resumed run (whose
+    --max_iterations counts the iterations still to run) starts it at the same point."""
+
+    start_iteration: int = 0
+    min_episode_length_share: float = 0.0
+    decay_per_iteration: float = 1.0
+    min_entropy_coef: float = 0.001
+
+    def check(self) -> None:
+        if self.start_iteration < 0:
+            raise ConfigError(f"entropy_annealing.start_iteration: {self.start_iteration}; give 0 or more")
+        if not 0.0 <= self.min_episode_length_share <= 1.0:
+            raise ConfigError(f"entropy_annealing.min_episode_length_share: {self.min_episode_length_share}; "
+                              "give a share of the episode length in [0, 1]")
+        if not 0.0 < self.decay_per_iteration <= 1.0:
+            raise ConfigError(f"entropy_annealing.decay_per_iteration: {self.decay_per_iteration}; give a factor "
+                              "in (0, 1]")
+        if self.min_entropy_coef < 0.0:
+            raise ConfigError(f"entropy_annealing.min_entropy_coef: {self.min_entropy_coef}; give 0 or more")
+
+
+@configclass
+class AnnealedPpoAlgorithmCfg(PpoAlgorithmCfg):
+    """PPO with AGILE's entropy-coefficient annealing."""
+
+    class_name: str = "agile.rl_env.rsl_rl.entropy_annealing:EntropyAnnealingPPO"
+    entropy_annealing: EntropyAnnealingCfg = field(default_factory=EntropyAnnealingCfg)
+
+
+@configclass
 class RunnerCommonCfg:
     """What every runner config has: the run's name and seed, the rollout length, the schedule and logging."""
 
@@ -181,6 +215,9 @@ def to_rsl_rl_dict(cfg: RunnerCfg) -> dict:
         # rsl-rl builds an LSTM for any rnn_type other than "gru", so a typo would silently train an LSTM
         if isinstance(model, RnnModelCfg) and model.rnn_type not in RNN_TYPES:
             raise ConfigError(f"rnn_type '{model.rnn_type}' is not one of {RNN_TYPES}")
+    annealing = getattr(cfg.algorithm, "entropy_annealing", None)
+    if annealing is not None:
+        annealing.check()
     d = to_dict(cfg)
     for key in RUNNER_ONLY_KEYS:
         d.pop(key, None)
