@@ -165,6 +165,37 @@ def test_record_writes_pick_and_place_episodes_with_camera_state_and_action(data
     assert frames[0].std() > 5.0  # the camera sees the scene, not a blank frame
 
 
+def test_each_episode_draws_its_props_colours_and_its_first_frame_shows_them():
+    import gymnasium as gym
+    import torch
+
+    import agile.tasks  # noqa: F401  (registers the tasks)
+    from agile.run.record import randomise_colors, rerender
+
+    env = gym.make(TASK, num_envs=2, device="cpu", overrides=SMALL_CAMERA).unwrapped
+    obs, _ = env.reset()
+    camera = env.scene["front_cam"]
+    before = obs["record"]["image"].clone()
+    table = env.scene["table"]
+    black = torch.zeros(2, 3)
+    table.set_color(black, torch.tensor([True, False]))  # env 0's table black, env 1's as it was
+    assert torch.all(torch.as_tensor(env.sim.model.shape_color.numpy())[table.shape_ids[0]] == 0.0)
+    camera.mark_stale()
+    after = camera.rgb(env.sim.state).float()
+    assert after[0].mean() < before[0].float().mean() - 10.0  # the table fills much of the view
+    assert torch.equal(after[1], before[1].float())
+    # a palette of one colour per prop: every env gets it, and the observation's frame shows it
+    palettes = {"table": ((1.0, 1.0, 1.0),), "object": ((0.0, 1.0, 0.0),)}
+    randomise_colors(env, palettes, torch.Generator().manual_seed(0), torch.ones(2, dtype=torch.bool))
+    rerender(env, obs, {"image": "front_cam"})
+    assert obs["record"]["image"][0].float().mean() > after[0].mean() + 10.0
+    colors = torch.as_tensor(env.sim.model.shape_color.numpy())
+    assert torch.all(colors[env.scene["object"].shape_ids] == torch.tensor([0.0, 1.0, 0.0]))
+    with pytest.raises(ValueError, match="color_rgb of shape"):
+        table.set_color(torch.zeros(3), torch.ones(2, dtype=torch.bool))
+    env.close()
+
+
 def test_record_refuses_bad_input_in_one_line(tmp_path, checkpoint):
     code, _, err = run_command("record", "--task", TASK, "--num_episodes", "1", "--out", tmp_path, cwd=ROOT)
     assert code == 2 and "exists" in err and len(err.strip().splitlines()) == 1

@@ -20,6 +20,12 @@ CUBE_START_POS_M = (0.33, -0.12, TABLE_TOP_HEIGHT_M + CUBE_EDGE_M / 2)
 TABLE_COLOR_RGB = (0.55, 0.42, 0.30)
 CUBE_COLOR_RGB = (0.85, 0.15, 0.10)
 """A red cube on a wooden table: apart in a camera image, whatever the light."""
+TABLE_PALETTE_RGB = ((0.55, 0.42, 0.30), (0.70, 0.55, 0.38), (0.36, 0.25, 0.17), (0.82, 0.80, 0.76),
+                     (0.45, 0.46, 0.48), (0.18, 0.18, 0.20), (0.62, 0.50, 0.44))
+"""Table tops a recording draws from, one per episode: light, mid and dark wood, white, grey and black laminate."""
+CUBE_PALETTE_RGB = ((0.85, 0.15, 0.10), (0.12, 0.55, 0.20), (0.12, 0.30, 0.80), (0.95, 0.80, 0.10),
+                    (0.95, 0.45, 0.05), (0.55, 0.20, 0.65))
+"""Cube colours a recording draws from, one per episode: red, green, blue, yellow, orange, purple."""
 
 
 def table_cfg() -> RigidObjectCfg:

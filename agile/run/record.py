@@ -9,7 +9,8 @@ before the step (its image terms as videos, its vector terms concatenated as `ob
 taken, as each action term records it (`demonstration_action`: absolute joint targets, a lower-body command), the
 reward and whether the episode ended. Every episode is its own (an early end too); episodes still running when
 `--num_episodes` are written are dropped. The scene's light changes direction and brightness about every 1.2 s
-(`--fixed_light` keeps it).
+(`--fixed_light` keeps it); each episode draws its props' colours from the task's palettes (`color_palettes` in its
+registration: the table top and the cube; `--fixed_colors` keeps the scene's).
 """
 
 from __future__ import annotations
@@ -73,17 +74,53 @@ def randomise_light(env, generator) -> None:
         camera.set_light(direction, (brightness,) * 3)
 
 
+def randomise_colors(env, palettes: dict, generator, env_mask) -> None:
+    """Each masked env's entities in a colour drawn from their palettes ({entity name: ((r, g, b), ...)})."""
+    import torch
+
+    for name, palette in palettes.items():
+        choices = torch.tensor(palette, dtype=torch.float32)
+        drawn = choices[torch.randint(len(palette), (env.num_envs,), generator=generator)]
+        env.scene[name].set_color(drawn.to(env.device), env_mask)
+
+
+def record_cameras(env) -> dict:
+    """{image term: scene camera} of the record group; ValueError for an image term that names no camera (its frames
+    could not be rendered again after a colour change)."""
+    manager = env.observation_manager
+    cameras = {name: manager.term_cfgs[RECORD_GROUP][name].params.get("sensor_name")
+               for name, shape in manager.term_shapes[RECORD_GROUP].items() if len(shape) == 3}
+    unnamed = [term for term, camera in cameras.items() if camera is None]
+    if unnamed:
+        raise ValueError(f"image terms {unnamed} name no scene camera (`sensor_name`): their frames cannot be "
+                         "rendered again after a colour change (--fixed_colors records without colour changes)")
+    return cameras
+
+
+def rerender(env, obs, image_sensors: dict) -> None:
+    """Render the record group's images of `obs` again (after a colour change), {term: camera name}."""
+    for term, sensor_name in image_sensors.items():
+        camera = env.scene[sensor_name]
+        camera.mark_stale()
+        obs[RECORD_GROUP][term] = camera.rgb(env.sim.state).clone()
+
+
 def record(env, policy, writer, num_episodes: int, randomise_lights: bool = True, seed: int = 0,
-           progress=print) -> dict:
-    """Run `policy` in `env` until `num_episodes` episodes are written by `writer`; returns the counts and speed."""
+           progress=print, color_palettes: dict | None = None) -> dict:
+    """Run `policy` in `env` until `num_episodes` episodes are written by `writer`; returns the counts and speed.
+    `color_palettes` ({entity name: colours}): each episode draws its entities' colours from them."""
     import torch
 
     manager = env.observation_manager
     shapes = manager.term_shapes[RECORD_GROUP]
     vector_terms = [name for name, shape in shapes.items() if len(shape) == 1]
     image_terms = [name for name, shape in shapes.items() if len(shape) == 3]
+    image_sensors = record_cameras(env) if color_palettes else {}
     generator = torch.Generator().manual_seed(seed)
     obs = env.obs_buf
+    if color_palettes:  # the first episodes' colours, in their first frames too
+        randomise_colors(env, color_palettes, generator, torch.ones(env.num_envs, dtype=torch.bool, device=env.device))
+        rerender(env, obs, image_sensors)
     written, frames, steps = 0, 0, 0
     start = time.perf_counter()
     with torch.inference_mode():
@@ -104,6 +141,9 @@ def record(env, policy, writer, num_episodes: int, randomise_lights: bool = True
                                  {name: image[i] for name, image in images.items()})
             frames += env.num_envs
             steps += 1
+            if color_palettes and done.any():  # the new episodes' colours, from their first frame on
+                randomise_colors(env, color_palettes, generator, torch.as_tensor(done, device=env.device))
+                rerender(env, obs, image_sensors)
             for i in done.nonzero()[0]:
                 if written < num_episodes:
                     index = writer.end_episode(int(i))
@@ -129,6 +169,9 @@ def main(argv=None) -> None:
     parser.add_argument("--task_description", default=None,
                         help="the language annotation of every episode (default: the task's)")
     parser.add_argument("--fixed_light", action="store_true", help="keep the scene's light as it is")
+    parser.add_argument("--fixed_colors", action="store_true",
+                        help="keep the scene's colours (default: each episode draws its props' colours from the "
+                        "task's palettes)")
     parser.add_argument("--encode_processes", type=int, default=None, metavar="N",
                         help="encode the videos in N worker processes (0: in this one; default: one per env, at "
                         "most the CPU cores less two)")
@@ -161,8 +204,11 @@ def main(argv=None) -> None:
     contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint)
     env_cfg, agent_cfg, device = cli.load_task(args)
     env = cli.make_env(args.task, inference_cfg(env_cfg), device, use_cache=not args.no_cache)
+    palettes = None if args.fixed_colors else spec.kwargs.get("color_palettes")
     try:
         state, videos, action = recording_layout(env)
+        if palettes:
+            record_cameras(env)
     except ValueError as err:
         cli.fail(str(err))
     policy = cli.load_policy(contents, env, agent_cfg)
@@ -178,7 +224,7 @@ def main(argv=None) -> None:
           f"{f'in {encode_processes} processes' if encode_processes else 'in this process'})", flush=True)
     result = record(env, policy, writer, args.num_episodes, randomise_lights=not args.fixed_light,
                     seed=env_cfg.seed if env_cfg.seed is not None else 0,
-                    progress=lambda line: print(line, flush=True))
+                    progress=lambda line: print(line, flush=True), color_palettes=palettes)
     print(f"[agile] wrote {result['episodes']} episodes, {result['frames_written']} frames in "
           f"{result['seconds']:.1f} s ({result['frames_per_s']:.1f} frames/s rendered and encoded over "
           f"{env.num_envs} envs): {args.out}")

@@ -94,6 +94,8 @@ class Entity:
         self.shape_ids, self.shape_body = self._shapes(model)
         """(N, S) global indices of the entity's shapes (world-major), for per-shape materials; (S,) the
         entity-local body of each of its shapes."""
+        self._shape_color = None if model.shape_color is None else wp.to_torch(model.shape_color)
+        """(all shapes, 3) the display colours cameras render (sRGB in [0, 1])."""
         # -- defaults (copies: what a reset returns to, relative to the env origin)
         self.default_body_mass = self.body_mass.clone()
         """Body masses as built [kg]: what each mass randomisation draws from (Isaac Lab)."""
@@ -123,6 +125,17 @@ class Entity:
         ids = ids[np.argsort(world[ids], kind="stable")].reshape(self.num_envs, -1)  # each world's in model order
         return (torch.as_tensor(ids, dtype=torch.long, device=self.device),
                 torch.as_tensor(local[ids[0]], dtype=torch.long, device=self.device))
+
+    def set_color(self, color_rgb: torch.Tensor, env_mask: torch.Tensor) -> None:
+        """Draw every shape of the entity in the masked envs in that env's colour, (N, 3) sRGB in [0, 1]: what
+        cameras render from their next frame on (nothing physical changes)."""
+        if self._shape_color is None:
+            raise ValueError(f"entity '{self.name}': the model has no shape colours to set")
+        if color_rgb.shape != (self.num_envs, 3):
+            raise ValueError(f"entity '{self.name}': color_rgb of shape {tuple(color_rgb.shape)}, expected "
+                             f"({self.num_envs}, 3)")
+        ids = self.shape_ids[env_mask]  # (M, S)
+        self._shape_color[ids] = color_rgb[env_mask].to(self._shape_color).unsqueeze(1).expand(-1, ids.shape[1], 3)
 
     @property
     def root_pos_env(self) -> torch.Tensor:
