@@ -180,7 +180,7 @@ def test_eval_reports_motion_tracking_errors(motion_env, tmp_path):
 
 
 def test_eval_breaks_outcomes_down_by_the_kind_of_episode_each_started_with():
-    from agile.run.eval import OutcomesByVariant
+    from agile.run.eval_breakdowns import OutcomesByVariant
 
     class Term:  # a command drawing one of two kinds of episode per env
         ids = torch.tensor([0, 1, 1])

@@ -386,7 +386,7 @@ def test_learning_curve_refuses_a_folder_without_logs(tmp_path):
 
 def test_error_by_command_bins_hand_values():
     import torch
-    from agile.run.eval import ErrorByCommand
+    from agile.run.eval_breakdowns import ErrorByCommand
 
     by_speed = ErrorByCommand((0.05, 0.5), "cpu")
     commanded = torch.tensor([0.0, 0.3, 0.4, 0.7])

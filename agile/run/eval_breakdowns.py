@@ -1,0 +1,70 @@
+"""What an evaluation tallies on the device as it runs, for its breakdowns: a tracking error by the commanded value
+(velocity by commanded speed, height by commanded height) and the outcomes by the kind of episode a command draws
+(pick-and-place by trajectory)."""
+
+from __future__ import annotations
+
+SPEED_BIN_EDGES_MPS = (0.05, 0.25, 0.5, 0.75, 1.0)
+"""Bins of the commanded planar speed |(vx, vy)| for the velocity error by command: [0, 0.05) is standing still."""
+HEIGHT_BIN_EDGES_M = (0.45, 0.5, 0.55, 0.6, 0.65, 0.7)
+"""Bins of the commanded base height for the height error by command."""
+
+
+class ErrorByCommand:
+    """A tracking error summed per bin of a commanded value over the steps alive, on the device (no host sync
+    per step): the error as a function of what was asked."""
+
+    def __init__(self, edges: tuple[float, ...], device):
+        import torch
+
+        self.edges = edges
+        self.edges_t = torch.tensor(edges, device=device)
+        self.error_sum = torch.zeros(len(edges) + 1, device=device)
+        self.steps = torch.zeros(len(edges) + 1, device=device)
+
+    def add(self, commanded, error, alive) -> None:
+        import torch
+
+        bins = torch.bucketize(commanded, self.edges_t, right=True)
+        self.error_sum.index_add_(0, bins, error * alive)
+        self.steps.index_add_(0, bins, alive)
+
+    def rows(self) -> list[dict]:
+        """[{"command": [low, high], "error": mean, "steps": n}] for the bins that saw a step (high None: open)."""
+        bounds = [0.0, *self.edges, None]
+        return [{"command": [bounds[i], bounds[i + 1]], "error": float(e / n), "steps": int(n)}
+                for i, (e, n) in enumerate(zip(self.error_sum.tolist(), self.steps.tolist())) if n > 0]
+
+
+class OutcomesByVariant:
+    """Episodes, falls and the episode metrics summed per kind of episode a command term draws (its
+    `episode_variants`, e.g. the trajectory), by the kind each episode started with: which kinds fail."""
+
+    def __init__(self, term, metric_keys):
+        import torch
+
+        self.term = term
+        self.names, ids = term.episode_variants()
+        self.start = ids.clone()  # each env's episode's kind, as drawn at its start
+        zeros = lambda: torch.zeros(len(self.names), device=ids.device)  # noqa: E731
+        self.episodes, self.falls = zeros(), zeros()
+        self.metrics = {key: zeros() for key in metric_keys}
+
+    def add(self, done, terminated, last_metrics: dict) -> None:
+        """After a step: count the episodes that ended, then note the kinds the reset envs drew."""
+        import torch
+
+        self.episodes.index_add_(0, self.start, done.float())
+        self.falls.index_add_(0, self.start, terminated.float())
+        for key, value in last_metrics.items():
+            self.metrics[key].index_add_(0, self.start, value * done)
+        self.start.copy_(torch.where(done, self.term.episode_variants()[1], self.start))
+
+    def rows(self) -> list[dict]:
+        """[{"variant", "episodes", "falls", "fall_rate", "episode_metrics"}] for the kinds that ended an episode."""
+        episodes, falls = self.episodes.tolist(), self.falls.tolist()
+        metrics = {key: value.tolist() for key, value in self.metrics.items()}
+        return [{"variant": name, "episodes": int(episodes[i]), "falls": int(falls[i]),
+                 "fall_rate": falls[i] / episodes[i],
+                 "episode_metrics": {key: values[i] / episodes[i] for key, values in metrics.items()}}
+                for i, name in enumerate(self.names) if episodes[i] > 0]
