@@ -112,20 +112,29 @@ def test_the_writer_refuses_an_existing_folder_and_odd_video_sizes(tmp_path):
 
 
 @pytest.fixture(scope="module")
-def checkpoint(tmp_path_factory):
-    """An untrained PickPlace policy's checkpoint (the task ships none yet): the recording is the point here."""
+def record_env():
+    """The recording task with a small camera, 2 envs on CPU (one build for the tests below)."""
     import gymnasium as gym
+
+    import agile.tasks  # noqa: F401  (registers the tasks)
+
+    env = gym.make(TASK, num_envs=2, device="cpu", overrides=SMALL_CAMERA).unwrapped
+    yield env
+    env.close()
+
+
+@pytest.fixture(scope="module")
+def checkpoint(record_env, tmp_path_factory):
+    """An untrained PickPlace policy's checkpoint (the task ships none yet): the recording is the point here."""
     from rsl_rl.runners import OnPolicyRunner
 
     import agile.tasks
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 
-    env_cfg, agent_cfg = agile.tasks.load_cfgs("PickPlace-G1-v0")
-    env = gym.make("PickPlace-G1-v0", cfg=env_cfg, num_envs=1, device="cpu").unwrapped
-    runner = OnPolicyRunner(RslRlVecEnvWrapper(env), to_rsl_rl_dict(agent_cfg), log_dir=None, device="cpu")
+    _, agent_cfg = agile.tasks.load_cfgs("PickPlace-G1-v0")  # the recording task runs PickPlace's policy
+    runner = OnPolicyRunner(RslRlVecEnvWrapper(record_env), to_rsl_rl_dict(agent_cfg), log_dir=None, device="cpu")
     path = tmp_path_factory.mktemp("policy") / "model.pt"
     runner.save(str(path))
-    env.close()
     return path
 
 
@@ -165,14 +174,12 @@ def test_record_writes_pick_and_place_episodes_with_camera_state_and_action(data
     assert frames[0].std() > 5.0  # the camera sees the scene, not a blank frame
 
 
-def test_each_episode_draws_its_props_colours_and_its_first_frame_shows_them():
-    import gymnasium as gym
+def test_each_episode_draws_its_props_colours_and_its_first_frame_shows_them(record_env):
     import torch
 
-    import agile.tasks  # noqa: F401  (registers the tasks)
     from agile.run.record import randomise_colors, rerender
 
-    env = gym.make(TASK, num_envs=2, device="cpu", overrides=SMALL_CAMERA).unwrapped
+    env = record_env
     obs, _ = env.reset()
     camera = env.scene["front_cam"]
     before = obs["record"]["image"].clone()
@@ -193,7 +200,6 @@ def test_each_episode_draws_its_props_colours_and_its_first_frame_shows_them():
     assert torch.all(colors[env.scene["object"].shape_ids] == torch.tensor([0.0, 1.0, 0.0]))
     with pytest.raises(ValueError, match="color_rgb of shape"):
         table.set_color(torch.zeros(3), torch.ones(2, dtype=torch.bool))
-    env.close()
 
 
 def test_record_refuses_bad_input_in_one_line(tmp_path, checkpoint):
