@@ -7,8 +7,9 @@ plus the per-episode statistics LeRobot's v2.1 readers and its v2.1 -> v3.0 conv
 
 Each env streams its own episode: rows are kept in memory, frames are encoded as they come (H.264, yuv420p,
 a key frame every 2 frames as LeRobot encodes, timestamps exactly i / fps from 0 in every episode, which is what the
-readers match video frames to rows by), in this process or in worker processes (`agile.run.video_encoders`). An episode is written when it ends, whether by time-out or early, and gets
-the next episode index; an episode still running when the recording stops is dropped with its video.
+readers match video frames to rows by), in this process or in worker processes (`agile.run.video_encoders`). An
+episode is written when it ends, whether by time-out or early, and gets the next episode index; an episode still
+running when the recording stops is dropped with its video.
 """
 
 from __future__ import annotations

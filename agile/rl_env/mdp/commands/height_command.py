@@ -136,8 +136,8 @@ class SmoothHeightCommand(CommandTerm):
     def compute(self, dt: float) -> None:
         # the settle clock and the height error before the resampling (AGILE's order)
         self.steps_since_resample.add_(1)
-        error_m = (self.measured_height_m - self.target_height_m).abs()
-        self._height_error.add(error_m, counted=self.settled & (self.target_height_m >= 0.0))
+        step = self.command_error()  # the one definition of the error, shared with evaluation's bins
+        self._height_error.add(step.error, counted=step.counted)
         super().compute(dt)
 
     def _start_episodes(self, env_mask: torch.Tensor) -> None:
