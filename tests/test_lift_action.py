@@ -294,10 +294,10 @@ def test_terrain_levels_move_up_after_standing_time_outs_and_down_after_failures
     for _ in range(4):
         assert episode([0.6, 0.4], [True, True]).item() == pytest.approx(1.0)
         episode([0.6, 0.4], [True, True], ending=nobody)  # a step where no episode ends counts nothing
-    assert term.num_successes.tolist() == [4, 0] and term.num_failures.tolist() == [0, 4]
+    assert term.outcomes.num_successes.tolist() == [4, 0] and term.outcomes.num_failures.tolist() == [0, 4]
     assert episode([0.6, 0.4], [True, True]).item() == pytest.approx(1.0)  # rows 2 and 0
     assert sim.terrain_levels.tolist() == [2, 0]
-    assert not term.num_successes.any() and not term.num_failures.any()  # a move clears both counts
+    assert not term.outcomes.num_successes.any() and not term.outcomes.num_failures.any()  # a move clears both counts
     assert torch.equal(sim.env_origins, sim.terrain_origins_m[sim.terrain_levels, sim.terrain_types])
     # env 0 stands but its episode ended early (not a time-out): a failure; env 1 now stands at the time-out
     for _ in range(4):

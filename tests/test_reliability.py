@@ -89,18 +89,26 @@ def test_a_non_finite_reward_term_counts_zero_and_is_counted_per_term():
     assert torch.isfinite(env.reward_manager.episode_sums["lin_vel_z"]).all()
 
 
-def test_training_state_round_trip_restores_the_step_counter_and_terrain_levels():
+def test_training_state_round_trip_restores_the_step_counter_terrain_levels_and_episode_counts():
+    """The terrain rows, and the successes and failures each env has gathered towards its next move: without the
+    counts no env could move up for its first 4 episodes after a resume (a flat terrain curve for ~200 iterations)."""
     overrides = ["scene.terrain.num_rows=4", "scene.terrain.num_cols=2", "scene.terrain.size_m=4.0",
                  "scene.terrain.border_width_m=1.0"]
     first = gym.make("Velocity-T1-v0", num_envs=2, device="cpu", overrides=overrides).unwrapped
     first.common_step_counter.fill_(123_456)
     first.sim.update_terrain_levels(torch.tensor([True, True]), torch.tensor([False, False]))
+    outcomes = first.curriculum_manager.funcs["terrain_levels"].outcomes
+    outcomes.num_successes.copy_(torch.tensor([3, 1]))
+    outcomes.num_failures.copy_(torch.tensor([0, 7]))
     state = first.training_state()
+    assert state["curriculum/terrain_levels.outcomes.num_successes"].tolist() == [3, 1]
     second = gym.make("Velocity-T1-v0", num_envs=2, device="cpu", seed=7, overrides=overrides).unwrapped
     second.load_training_state(state)
     assert int(second.common_step_counter) == 123_456
     assert second.sim.terrain_levels.tolist() == first.sim.terrain_levels.tolist()
     torch.testing.assert_close(second.env_origins, first.env_origins)
+    restored = second.curriculum_manager.funcs["terrain_levels"].outcomes
+    assert restored.num_successes.tolist() == [3, 1] and restored.num_failures.tolist() == [0, 7]
 
 
 def test_training_state_round_trip_restores_adaptive_curricula(capsys):

@@ -27,8 +27,9 @@ class CurriculumManager:
         return {f"Curriculum/{name}": value for name, value in self.state.items()}
 
     def training_state(self) -> dict[str, torch.Tensor]:
-        """{"<term>.<attr>": CPU copy} of every term's `training_state_attrs` (adaptive curricula)."""
-        return {f"{name}.{attr}": getattr(func, attr).detach().cpu().clone()
+        """{"<term>.<attr>": CPU copy} of every term's `training_state_attrs` (adaptive curricula; an attribute
+        may be a dotted path, e.g. "outcomes.num_successes")."""
+        return {f"{name}.{attr}": _attribute(func, attr).detach().cpu().clone()
                 for name, func in self.funcs.items() for attr in getattr(func, "training_state_attrs", ())}
 
     def load_training_state(self, state: dict[str, torch.Tensor]) -> list[str]:
@@ -43,9 +44,17 @@ class CurriculumManager:
                              f"not have; terms with state: {sorted(expected)}")
         for key, value in state.items():
             name, attr = key.split(".", 1)
-            target = getattr(self.funcs[name], attr)
+            target = _attribute(self.funcs[name], attr)
             if value.shape != target.shape:
                 raise ValueError(f"curriculum state '{key}': checkpoint shape {tuple(value.shape)}, this env "
                                  f"{tuple(target.shape)} (a different num_envs?)")
             target.copy_(value.to(target.device))
         return sorted(set(expected) - set(state))
+
+
+def _attribute(term, path: str) -> torch.Tensor:
+    """The tensor at a dotted attribute path of a curriculum term ("scale", "outcomes.num_successes")."""
+    value = term
+    for part in path.split("."):
+        value = getattr(value, part)
+    return value

@@ -9,13 +9,15 @@ import torch
 from agile.rl_env.managers import ManagerTermBase
 
 
-__all__ = ["EpisodeOutcomeCounter", "pushing_curriculum", "remove_harness", "terrain_levels_vel",
-           "update_reward_weight_step"]
+__all__ = ["EpisodeOutcomeCounter", "OUTCOME_STATE_ATTRS", "pushing_curriculum", "remove_harness",
+           "terrain_levels_vel", "update_reward_weight_step"]
 
 class EpisodeOutcomeCounter:
     """AGILE's terrain-row rule, shared by the terrain curricula: per env, the successful and failed episodes since
     the last move; a move up after `n_successes` successes, down after `n_failures` failures, each move clearing
-    both counts."""
+    both counts. A term holding one as `outcomes` lists `OUTCOME_STATE_ATTRS` in its `training_state_attrs`: a
+    resumed training keeps the counts (afresh, no env could move up for its first `n_successes` episodes, ~200
+    iterations of a flat terrain curve after every resume)."""
 
     def __init__(self, num_envs: int, device):
         self.num_successes = torch.zeros(num_envs, dtype=torch.long, device=device)
@@ -32,6 +34,10 @@ class EpisodeOutcomeCounter:
         self.num_successes.masked_fill_(moved, 0)
         self.num_failures.masked_fill_(moved, 0)
         return move_up, move_down
+
+
+OUTCOME_STATE_ATTRS = ("outcomes.num_successes", "outcomes.num_failures")
+"""The `training_state_attrs` of a curriculum term's `outcomes` (an `EpisodeOutcomeCounter`)."""
 
 
 class update_reward_weight_step(ManagerTermBase):  # noqa: N801 (AGILE's name)
@@ -75,13 +81,14 @@ class terrain_levels_vel(ManagerTermBase):  # noqa: N801 (Isaac Lab's name)
     between command changes, so turning back on a new command still counts as walking.
     """
 
+    training_state_attrs = OUTCOME_STATE_ATTRS  # restored on resume (ManagerTermBase)
+
     def __init__(self, cfg, env):
         super().__init__(cfg, env)
         if env.sim.terrain is None:
             raise ValueError("terrain_levels_vel needs a terrain (SimCfg.terrain)")
         n = env.num_envs
         self.outcomes = EpisodeOutcomeCounter(n, env.device)
-        self.num_successes, self.num_failures = self.outcomes.num_successes, self.outcomes.num_failures
         self.traveled_distance_m = torch.zeros(n, device=env.device)
         """Displacement of the finished command pieces of the current episode."""
         self.piece_start_xy_w = torch.zeros(n, 2, device=env.device)

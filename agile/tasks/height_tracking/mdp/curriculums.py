@@ -7,7 +7,7 @@ from __future__ import annotations
 import torch
 
 from agile.rl_env.managers import ManagerTermBase
-from agile.rl_env.mdp.curriculums import EpisodeOutcomeCounter
+from agile.rl_env.mdp.curriculums import OUTCOME_STATE_ATTRS, EpisodeOutcomeCounter
 
 __all__ = ["adaptive_force_decay", "terrain_levels_tracking_at_timeout", "update_reward_weight_after_curriculum"]
 
@@ -58,6 +58,8 @@ class terrain_levels_tracking_at_timeout(ManagerTermBase):  # noqa: N801 (AGILE'
     the lift action `lift_action_name` has a scale at or below `max_lift_scale` (AGILE: its prerequisite, the lift
     curriculum below 0.01): until then episodes are not counted and every env stays on its row. Returns the mean
     terrain level."""
+
+    training_state_attrs = OUTCOME_STATE_ATTRS  # restored on resume (ManagerTermBase)
 
     def __init__(self, cfg, env):
         super().__init__(cfg, env)

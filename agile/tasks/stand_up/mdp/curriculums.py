@@ -7,7 +7,7 @@ from __future__ import annotations
 import torch
 
 from agile.rl_env.managers import ROBOT, ManagerTermBase, SceneEntityCfg
-from agile.rl_env.mdp.curriculums import EpisodeOutcomeCounter
+from agile.rl_env.mdp.curriculums import OUTCOME_STATE_ATTRS, EpisodeOutcomeCounter
 from agile.rl_env.mdp.observations import base_height_above_ground
 
 __all__ = ["adaptive_lift_curriculum", "terrain_levels_standing_at_timeout"]
@@ -73,12 +73,13 @@ class terrain_levels_standing_at_timeout(ManagerTermBase):  # noqa: N801 (AGILE'
     move clears both counts (as `terrain_levels_vel`). Returns the mean terrain level.
     """
 
+    training_state_attrs = OUTCOME_STATE_ATTRS  # restored on resume (ManagerTermBase)
+
     def __init__(self, cfg, env):
         super().__init__(cfg, env)
         if env.sim.terrain is None:
             raise ValueError("terrain_levels_standing_at_timeout needs a terrain (SimCfg.terrain)")
         self.outcomes = EpisodeOutcomeCounter(env.num_envs, env.device)
-        self.num_successes, self.num_failures = self.outcomes.num_successes, self.outcomes.num_failures
 
     def __call__(self, env, env_mask, min_height_m: float = 0.52,
                  sensor_name: str | None = "height_measurement_sensor",
