@@ -135,6 +135,28 @@ def test_rsl_rl_runner_options_reach_the_runner_cfg():
     assert train_cfg["actor"]["distribution_cfg"]["init_std"] == 0.3  # T1 starts with 0.3 rad of action noise
 
 
+def test_the_float32_matmul_precision_is_a_runner_setting_applied_to_the_process():
+    import torch
+
+    import agile.tasks
+    from agile.rl_env.rsl_rl import to_rsl_rl_dict
+    from agile.rl_env.rsl_rl.runner_cfg import set_matmul_precision
+
+    _, agent_cfg = agile.tasks.load_cfgs("Velocity-G1-History-v0")
+    assert agent_cfg.float32_matmul_precision == "highest"
+    assert "float32_matmul_precision" not in to_rsl_rl_dict(agent_cfg)  # ours, not rsl-rl's
+    apply_overrides({"agent": agent_cfg}, ["agent.float32_matmul_precision=tf32"])
+    with pytest.raises(ConfigError, match=r"float32_matmul_precision: 'tf32' is not one of \('highest', 'high'"):
+        to_rsl_rl_dict(agent_cfg)
+    before = torch.get_float32_matmul_precision()
+    try:
+        apply_overrides({"agent": agent_cfg}, ["agent.float32_matmul_precision=high"])
+        set_matmul_precision(agent_cfg)
+        assert torch.get_float32_matmul_precision() == "high"
+    finally:
+        torch.set_float32_matmul_precision(before)
+
+
 @pytest.mark.parametrize("task", ["Velocity-T1-v0", "Velocity-G1-History-v0", "Velocity-Height-G1-Teacher-v0",
                                   "Velocity-Height-G1-Student-Recurrent-v0", "Velocity-Height-G1-Student-History-v0"])
 def test_velocity_tasks_start_on_agile_terrain_rows(task):

@@ -151,6 +151,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
 
     from agile.rl_env import ManagerBasedRLEnv
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+    from agile.rl_env.rsl_rl.runner_cfg import set_matmul_precision
 
     flat_raw = flat_raw_physics(env_cfg, device, steps) if env_cfg.scene.terrain is not None else None
     start = time.perf_counter()
@@ -186,6 +187,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
 
     agent_cfg.max_iterations = train_iterations
     wrapped = RslRlVecEnvWrapper(env)
+    set_matmul_precision(agent_cfg)
     with cli.quiet_stdout():
         runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
     runner.learn(1)  # warm-up: allocations, first update

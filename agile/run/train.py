@@ -293,6 +293,7 @@ def main(argv=None) -> None:
 
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
     from agile.rl_env.rsl_rl.checkpoints import restore_runner, runner_class
+    from agile.rl_env.rsl_rl.runner_cfg import set_matmul_precision
     from agile.rl_env.rsl_rl.progress import show_progress
     from agile.rl_env.rsl_rl.distillation import load_teacher
 
@@ -310,6 +311,7 @@ def main(argv=None) -> None:
 
         share, every = args.inject_nan_actions
         wrapped = NanActionVecEnv(env, share, int(every), agent_cfg.num_steps_per_env)
+    set_matmul_precision(agent_cfg)
     with cli.quiet_stdout():
         runner = runner_class(agent_cfg)(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
     runner.logger.git_status_repos = cli.git_repos()

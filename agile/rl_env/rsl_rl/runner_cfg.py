@@ -108,6 +108,26 @@ class RunnerCommonCfg:
     torch_compile_mode: str | None = None
     """rsl-rl compiles the models with torch.compile in this mode ("default", "max-autotune-no-cudagraphs");
     None: eager."""
+    float32_matmul_precision: str = "highest"
+    """torch.set_float32_matmul_precision for the training process, one of MATMUL_PRECISIONS: "high" lets float32
+    matrix products (the policy's inference and the update) run on TF32 tensor cores, "highest" keeps full float32."""
+
+
+MATMUL_PRECISIONS = ("highest", "high", "medium")
+
+
+def set_matmul_precision(cfg: RunnerCommonCfg) -> None:
+    """Apply the runner config's float32 matmul precision to this process (before the runner is built)."""
+    import torch
+
+    check_matmul_precision(cfg)
+    torch.set_float32_matmul_precision(cfg.float32_matmul_precision)
+
+
+def check_matmul_precision(cfg: RunnerCommonCfg) -> None:
+    if cfg.float32_matmul_precision not in MATMUL_PRECISIONS:
+        raise ConfigError(f"float32_matmul_precision: '{cfg.float32_matmul_precision}' is not one of "
+                          f"{MATMUL_PRECISIONS}")
 
 
 @configclass
@@ -200,7 +220,7 @@ def policy_state_key(cfg: RunnerCfg) -> str:
 
 
 RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "teacher_task", "init_policy_task",
-                    "critic_warmup_iterations", "critic_warmup_learning_rate")
+                    "critic_warmup_iterations", "critic_warmup_learning_rate", "float32_matmul_precision")
 
 
 def to_rsl_rl_dict(cfg: RunnerCfg) -> dict:
@@ -218,6 +238,7 @@ def to_rsl_rl_dict(cfg: RunnerCfg) -> dict:
     annealing = getattr(cfg.algorithm, "entropy_annealing", None)
     if annealing is not None:
         annealing.check()
+    check_matmul_precision(cfg)
     d = to_dict(cfg)
     for key in RUNNER_ONLY_KEYS:
         d.pop(key, None)
