@@ -1,6 +1,7 @@
-"""SyncFreePPO's update (the learning rate adapted on the device, fused Adam, losses read once) does rsl-rl's PPO math:
-from the same weights and the same rollout, the losses, the adapted learning rate and the weights after an update
-match the plain update (CPU)."""
+"""SyncFreePPO's update (the learning rate adapted on the device, fused Adam, losses read once) and CapturedPPO's (its
+mini-batch step replayed as a CUDA graph) do rsl-rl's PPO math: from the same weights and the same rollouts, the
+losses, the adapted learning rate and the weights after each update match the plain update (CPU; CapturedPPO's graph
+on a CUDA device)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import torch
 from rsl_rl.algorithms import PPO
 from tensordict import TensorDict
 
+from agile.rl_env.rsl_rl.captured_ppo import CapturedPPO
 from agile.rl_env.rsl_rl.sync_free_ppo import SyncFreePPO
 
 NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS = 16, 12, 10, 4
@@ -23,8 +25,8 @@ class FakeEnv:
     num_actions = NUM_ACTIONS
 
 
-def make_algorithm(cls, desired_kl: float):
-    obs = TensorDict({"policy": torch.zeros(NUM_ENVS, OBS_DIM)}, batch_size=[NUM_ENVS])
+def make_algorithm(cls, desired_kl: float, device: str = "cpu"):
+    obs = TensorDict({"policy": torch.zeros(NUM_ENVS, OBS_DIM, device=device)}, batch_size=[NUM_ENVS])
     cfg = {"obs_groups": {"actor": ["policy"], "critic": ["policy"]}, "num_steps_per_env": NUM_STEPS,
            "multi_gpu": None,
            "actor": {"class_name": "MLPModel", "hidden_dims": [32, 32], "activation": "elu", "obs_normalization": True,
@@ -35,25 +37,33 @@ def make_algorithm(cls, desired_kl: float):
                          "desired_kl": desired_kl, "num_learning_epochs": 3, "num_mini_batches": 2,
                          "entropy_coef": 0.005}}
     torch.manual_seed(0)
-    return PPO.construct_algorithm(obs, FakeEnv(), cfg, "cpu")
+    return PPO.construct_algorithm(obs, FakeEnv(), cfg, device)
 
 
-def fill_rollout(algorithm) -> None:
-    generator = torch.Generator().manual_seed(1)
-    obs = TensorDict({"policy": torch.randn(NUM_ENVS, OBS_DIM, generator=generator)}, batch_size=[NUM_ENVS])
-    torch.manual_seed(2)
+def fill_rollout(algorithm, seed: int = 1) -> None:
+    generator = torch.Generator().manual_seed(seed)
+    device = algorithm.device
+
+    def observe():
+        return TensorDict({"policy": torch.randn(NUM_ENVS, OBS_DIM, generator=generator).to(device)},
+                          batch_size=[NUM_ENVS])
+
+    obs = observe()
+    torch.manual_seed(seed + 1)
     for _ in range(NUM_STEPS):
         algorithm.act(obs)
-        obs = TensorDict({"policy": torch.randn(NUM_ENVS, OBS_DIM, generator=generator)}, batch_size=[NUM_ENVS])
-        rewards = torch.randn(NUM_ENVS, generator=generator)
-        dones = torch.rand(NUM_ENVS, generator=generator) < 0.1
-        algorithm.process_env_step(obs, rewards, dones, {"time_outs": torch.zeros(NUM_ENVS, dtype=torch.bool)})
+        obs = observe()
+        rewards = torch.randn(NUM_ENVS, generator=generator).to(device)
+        dones = (torch.rand(NUM_ENVS, generator=generator) < 0.1).to(device)
+        algorithm.process_env_step(obs, rewards, dones,
+                                   {"time_outs": torch.zeros(NUM_ENVS, dtype=torch.bool, device=device)})
     algorithm.compute_returns(obs)
 
 
+@pytest.mark.parametrize("cls", [SyncFreePPO, CapturedPPO])  # on a CPU CapturedPPO updates as SyncFreePPO does
 @pytest.mark.parametrize("desired_kl", [0.01, 1.0e-6, 10.0])  # the learning rate held, lowered, raised
-def test_the_sync_free_update_matches_rsl_rls_update(desired_kl):
-    plain, sync_free = make_algorithm("PPO", desired_kl), make_algorithm(SyncFreePPO, desired_kl)
+def test_the_sync_free_update_matches_rsl_rls_update(desired_kl, cls):
+    plain, sync_free = make_algorithm("PPO", desired_kl), make_algorithm(cls, desired_kl)
     sync_free.actor.load_state_dict(plain.actor.state_dict())
     sync_free.critic.load_state_dict(plain.critic.state_dict())
     results = []
@@ -86,3 +96,46 @@ def test_a_checkpoint_of_the_sync_free_update_resumes_in_either():
         assert algorithm.learning_rate == pytest.approx(sync_free.learning_rate)
     assert float(again.learning_rate_t) == pytest.approx(sync_free.learning_rate)
     assert again.optimizer.param_groups[0]["lr"] is again.learning_rate_t  # the update still adapts it on the device
+
+
+@pytest.mark.parametrize("cls", ["PPO", SyncFreePPO])
+def test_setting_the_learning_rate_reaches_the_optimizer(cls):
+    """What the critic warm-up does before and after its iterations: the update's learning rate, kept where the
+    update adapts it (a float, or SyncFreePPO's device tensor, written in place)."""
+    from agile.run.train import set_learning_rate
+
+    algorithm = make_algorithm(cls, 0.01)
+    set_learning_rate(algorithm, 3.0e-4)
+    assert algorithm.learning_rate == pytest.approx(3.0e-4)
+    assert float(algorithm.optimizer.param_groups[0]["lr"]) == pytest.approx(3.0e-4)
+    if cls is SyncFreePPO:
+        assert algorithm.optimizer.param_groups[0]["lr"] is algorithm.learning_rate_t
+        fill_rollout(algorithm)
+        algorithm.update()  # the update reports the rate it adapted, from 3e-4
+        assert algorithm.learning_rate == pytest.approx(float(algorithm.learning_rate_t))
+        assert algorithm.learning_rate != pytest.approx(1.0e-3)
+
+
+@pytest.mark.gpu
+def test_the_captured_update_matches_the_eager_update_on_the_gpu():
+    """Four updates (the first eager, then captured afresh each time) against SyncFreePPO's eager updates: the
+    normalisers learn between updates and the entropy coefficient changes, which each new capture must see."""
+    eager, captured = make_algorithm(SyncFreePPO, 0.01, "cuda"), make_algorithm(CapturedPPO, 0.01, "cuda")
+    assert captured.captures
+    captured.actor.load_state_dict(eager.actor.state_dict())
+    captured.critic.load_state_dict(eager.critic.state_dict())
+    for update in range(4):
+        results = []
+        for algorithm in (eager, captured):
+            algorithm.entropy_coef = 0.005 * (update + 1)
+            fill_rollout(algorithm, seed=10 * update)
+            torch.manual_seed(100 + update)
+            losses = algorithm.update()
+            results.append((losses, algorithm.learning_rate, copy.deepcopy(algorithm.actor.state_dict())))
+        (eager_losses, eager_lr, eager_actor), (losses, lr, actor) = results
+        assert lr == pytest.approx(eager_lr, rel=1e-5), update
+        for name in ("value", "surrogate", "entropy"):
+            assert losses[name] == pytest.approx(eager_losses[name], rel=1e-3, abs=1e-5), (update, name)
+        for name, value in eager_actor.items():
+            assert torch.allclose(actor[name], value, rtol=1e-3, atol=1e-5), (update, name)
+    assert captured.graph is not None and captured.updates_done == 4

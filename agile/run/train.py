@@ -24,10 +24,16 @@ from agile.run import multi_agent
 
 
 def set_learning_rate(algorithm, learning_rate: float) -> None:
-    """The PPO algorithm's learning rate, as its adaptive schedule sets it (the attribute and every group)."""
+    """The PPO algorithm's learning rate, as its adaptive schedule sets it (the attribute and every group). A
+    group's learning rate held as a tensor (SyncFreePPO adapts it on the device) is written in place."""
+    import torch
+
     algorithm.learning_rate = learning_rate
     for group in algorithm.optimizer.param_groups:
-        group["lr"] = learning_rate
+        if isinstance(group["lr"], torch.Tensor):
+            group["lr"].fill_(learning_rate)
+        else:
+            group["lr"] = learning_rate
 
 
 def warm_up_critic(runner, iterations: int, learning_rate: float) -> None:

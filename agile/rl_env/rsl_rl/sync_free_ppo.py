@@ -42,54 +42,62 @@ class SyncFreePPO(PPO):
 
     def update(self) -> dict[str, float]:
         sums = torch.zeros(4, device=self.device)  # value, surrogate, entropy, symmetry
-        adaptive = self.desired_kl is not None and self.schedule == "adaptive"
         for batch in self.storage.mini_batch_generator(self.num_mini_batches, self.num_learning_epochs):
-            original_batch_size = batch.observations.batch_size[0]
-            if self.normalize_advantage_per_mini_batch:
+            self.mini_batch_step(batch, sums)
+        return self.finish_update(sums)
+
+    def mini_batch_step(self, batch, sums: torch.Tensor) -> None:
+        """One gradient step on a mini-batch (rsl-rl's loop body); adds its losses to `sums` on the device."""
+        original_batch_size = batch.observations.batch_size[0]
+        if self.normalize_advantage_per_mini_batch:
+            with torch.no_grad():
+                batch.advantages = (batch.advantages - batch.advantages.mean()) / (batch.advantages.std() + 1e-8)
+        if self.symmetry:
+            self.symmetry.augment_batch(batch, original_batch_size)
+        with torch.amp.autocast(device_type=torch.device(self.device).type, enabled=self.use_mixed_precision,
+                                dtype=torch.bfloat16):
+            self.actor(batch.observations, masks=batch.masks, hidden_state=batch.hidden_states[0],
+                       stochastic_output=True)
+            actions_log_prob = self.actor.get_output_log_prob(batch.actions)
+            values = self.critic(batch.observations, masks=batch.masks, hidden_state=batch.hidden_states[1])
+            distribution_params = tuple(p[:original_batch_size] for p in self.actor.output_distribution_params)
+            entropy = self.actor.output_entropy[:original_batch_size]
+            if self.desired_kl is not None and self.schedule == "adaptive":
                 with torch.no_grad():
-                    batch.advantages = (batch.advantages - batch.advantages.mean()) / (batch.advantages.std() + 1e-8)
+                    self._adapt_learning_rate(batch.old_distribution_params, distribution_params)
+            ratio = torch.exp(actions_log_prob - torch.squeeze(batch.old_actions_log_prob))
+            advantages = torch.squeeze(batch.advantages)
+            surrogate_loss = torch.max(-advantages * ratio, -advantages * torch.clamp(
+                ratio, 1.0 - self.clip_param, 1.0 + self.clip_param)).mean()
+            if self.use_clipped_value_loss:
+                value_clipped = batch.values + (values - batch.values).clamp(-self.clip_param, self.clip_param)
+                value_loss = torch.max((values - batch.returns).pow(2),
+                                       (value_clipped - batch.returns).pow(2)).mean()
+            else:
+                value_loss = (batch.returns - values).pow(2).mean()
+            loss = surrogate_loss + self.value_loss_coef * value_loss - self.entropy_coef * entropy.mean()
+            symmetry_loss = torch.zeros((), device=self.device)
             if self.symmetry:
-                self.symmetry.augment_batch(batch, original_batch_size)
-            with torch.amp.autocast(device_type=torch.device(self.device).type, enabled=self.use_mixed_precision,
-                                    dtype=torch.bfloat16):
-                self.actor(batch.observations, masks=batch.masks, hidden_state=batch.hidden_states[0],
-                           stochastic_output=True)
-                actions_log_prob = self.actor.get_output_log_prob(batch.actions)
-                values = self.critic(batch.observations, masks=batch.masks, hidden_state=batch.hidden_states[1])
-                distribution_params = tuple(p[:original_batch_size] for p in self.actor.output_distribution_params)
-                entropy = self.actor.output_entropy[:original_batch_size]
-                if adaptive:
-                    with torch.no_grad():
-                        self._adapt_learning_rate(batch.old_distribution_params, distribution_params)
-                ratio = torch.exp(actions_log_prob - torch.squeeze(batch.old_actions_log_prob))
-                advantages = torch.squeeze(batch.advantages)
-                surrogate_loss = torch.max(-advantages * ratio, -advantages * torch.clamp(
-                    ratio, 1.0 - self.clip_param, 1.0 + self.clip_param)).mean()
-                if self.use_clipped_value_loss:
-                    value_clipped = batch.values + (values - batch.values).clamp(-self.clip_param, self.clip_param)
-                    value_loss = torch.max((values - batch.returns).pow(2),
-                                           (value_clipped - batch.returns).pow(2)).mean()
-                else:
-                    value_loss = (batch.returns - values).pow(2).mean()
-                loss = surrogate_loss + self.value_loss_coef * value_loss - self.entropy_coef * entropy.mean()
-                symmetry_loss = torch.zeros((), device=self.device)
-                if self.symmetry:
-                    symmetry_loss = self.symmetry.compute_loss(self.actor, batch, original_batch_size)
-                    if self.symmetry.use_mirror_loss:
-                        loss = loss + self.symmetry.mirror_loss_coeff * symmetry_loss
-            self.optimizer.zero_grad()
-            loss.backward()
-            if self.is_multi_gpu:
-                self.reduce_parameters()
-            nn.utils.clip_grad_norm_(self.actor.parameters(), self.max_grad_norm)
-            nn.utils.clip_grad_norm_(self.critic.parameters(), self.max_grad_norm)
-            self.optimizer.step()
-            sums += torch.stack((value_loss.detach(), surrogate_loss.detach(), entropy.mean().detach(),
-                                 symmetry_loss.detach().float()))
+                symmetry_loss = self.symmetry.compute_loss(self.actor, batch, original_batch_size)
+                if self.symmetry.use_mirror_loss:
+                    loss = loss + self.symmetry.mirror_loss_coeff * symmetry_loss
+        self.optimizer.zero_grad()
+        loss.backward()
+        if self.is_multi_gpu:
+            self.reduce_parameters()
+        nn.utils.clip_grad_norm_(self.actor.parameters(), self.max_grad_norm)
+        nn.utils.clip_grad_norm_(self.critic.parameters(), self.max_grad_norm)
+        self.optimizer.step()
+        sums += torch.stack((value_loss.detach(), surrogate_loss.detach(), entropy.mean().detach(),
+                             symmetry_loss.detach().float()))
+
+    def finish_update(self, sums: torch.Tensor) -> dict[str, float]:
+        """After the mini-batches: the observation normalisers learn the rollout, the mean losses are read (the
+        update's one read back to the host), the storage is cleared."""
         obs = self.storage.observations.flatten(0, 1)
         self.actor.update_normalization(obs)
         self.critic.update_normalization(obs)
-        means = (sums / (self.num_learning_epochs * self.num_mini_batches)).tolist()  # the one read of the update
+        means = (sums / (self.num_learning_epochs * self.num_mini_batches)).tolist()
         self.learning_rate = float(self.learning_rate_t)
         losses = {"value": means[0], "surrogate": means[1], "entropy": means[2]}
         if self.symmetry:
