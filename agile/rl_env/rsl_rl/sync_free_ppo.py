@@ -56,8 +56,9 @@ class SyncFreePPO(PPO):
             self.symmetry.augment_batch(batch, original_batch_size)
         with torch.amp.autocast(device_type=torch.device(self.device).type, enabled=self.use_mixed_precision,
                                 dtype=torch.bfloat16):
-            self.actor(batch.observations, masks=batch.masks, hidden_state=batch.hidden_states[0],
-                       stochastic_output=True)
+            # the action distribution at the batch; rsl-rl's actor(..., stochastic_output=True) also draws a sample
+            # that the update does not use (and a random draw would not replay in CapturedPPO's graph)
+            self.actor.distribution.update(self.actor.mlp(self.actor.get_latent(batch.observations)))
             actions_log_prob = self.actor.get_output_log_prob(batch.actions)
             values = self.critic(batch.observations, masks=batch.masks, hidden_state=batch.hidden_states[1])
             distribution_params = tuple(p[:original_batch_size] for p in self.actor.output_distribution_params)
