@@ -122,6 +122,28 @@ def test_ppo_finetuning_starts_from_the_shipped_student_and_exports(task, tmp_pa
     assert descriptor["policy"]["recurrent"] == ("Recurrent" in task)
 
 
+def test_a_shipped_student_is_distilled_further_from_its_weights(tmp_path):
+    """--init_policy on a distilled task: the student starts from a distilled student's weights (here the shipped
+    one, the teacher the shipped teacher) and its distillation goes on; a PPO actor is refused by name."""
+    shipped = ROOT / "agile" / "data" / "policy" / "Velocity-Height-G1-Student-History-v0.pt"
+    code, out = run("scripts/train.py", "--task", "Velocity-Height-G1-Student-History-v0", "--init_policy",
+                    str(shipped), "--log_root", str(tmp_path), *SHORT)
+    assert code == 0 and "student initialised from" in out and "Mean behavior loss:" in out, out
+    run_dir = next((tmp_path / STUDENTS["Velocity-Height-G1-Student-History-v0"]).iterdir())
+    student = torch.load(shipped, weights_only=True)["student_state_dict"]
+    started = torch.load(run_dir / "init_policy.pt", weights_only=True)["student_state_dict"]
+    distilled = torch.load(run_dir / "model_0.pt", weights_only=True)
+    assert distilled["iter"] == 0  # a new run, from the shipped weights
+    for key, value in student.items():
+        torch.testing.assert_close(started[key], value, rtol=0.0, atol=0.0)
+    assert not torch.equal(distilled["student_state_dict"]["mlp.0.weight"], student["mlp.0.weight"])  # it learned
+    assert torch.dist(distilled["student_state_dict"]["mlp.0.weight"], student["mlp.0.weight"]) < 1.0  # from there
+    actor = ROOT / "agile" / "data" / "policy" / "Velocity-Height-G1-Teacher-v0.pt"
+    code, out = run("scripts/train.py", "--task", "Velocity-Height-G1-Student-History-v0", "--init_policy",
+                    str(actor), "--log_root", str(tmp_path), *SHORT)
+    assert code != 0 and "starts from a distilled student (its student_state_dict)" in out, out
+
+
 def test_finetuning_refuses_a_checkpoint_without_a_policy(tmp_path):
     bad = tmp_path / "critic_only.pt"
     torch.save({"critic_state_dict": {}, "iter": 3}, bad)

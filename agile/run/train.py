@@ -6,6 +6,8 @@
     agile train --task Velocity-T1-v0 --init_policy agile/data/policy/Velocity-T1-v0.pt \
         --init_action_std 0.3
     agile train --task Velocity-T1-v0 agent.algorithm.learning_rate=5e-4 env.episode_length_s=20
+    agile train --task Velocity-Height-G1-Student-History-v0 \
+        --init_policy agile/data/policy/Velocity-Height-G1-Student-History-v0.pt     # distil the shipped student on
     torchrun --standalone --nproc_per_node=2 scripts/train.py --task Velocity-T1-v0 --distributed   # 2 GPUs
 
 Checkpoints, tensorboard logs and the resolved configs go to logs/rsl_rl/<experiment>/<time>_<run>/ (with
@@ -134,9 +136,16 @@ def check_rank_weights(runner, rank) -> None:
         print(f"[agile] all {rank.world_size} ranks hold the same weights", flush=True)
 
 
-def as_actor_checkpoint(checkpoint: dict, path: str) -> dict:
-    """The --init_policy checkpoint (contents of `path`) with its policy as the actor: a PPO checkpoint as it is,
-    a distilled student's (rsl-rl's "student_state_dict") with its student as the actor (fine-tuning by PPO)."""
+def as_policy_checkpoint(checkpoint: dict, path: str, distilled: bool) -> dict:
+    """The --init_policy checkpoint (contents of `path`) with its policy where the run's algorithm loads it. PPO: the
+    actor (a PPO checkpoint as it is; a distilled student's "student_state_dict" as the actor: fine-tuning by PPO).
+    Distillation: the student (a distilled student's checkpoint or shipped file: its distillation goes on)."""
+    if distilled:
+        if "student_state_dict" not in checkpoint:
+            cli.fail(f"--init_policy {path}: a distilled task's student starts from a distilled student (its "
+                     f"student_state_dict); the file holds {sorted(checkpoint)}")
+        return {"student_state_dict": checkpoint["student_state_dict"], "iter": checkpoint.get("iter", 0),
+                "infos": checkpoint.get("infos")}
     if "actor_state_dict" in checkpoint:
         return checkpoint
     if "student_state_dict" not in checkpoint:
@@ -146,20 +155,20 @@ def as_actor_checkpoint(checkpoint: dict, path: str) -> dict:
             "infos": checkpoint.get("infos")}
 
 
-def initial_actor_checkpoint(checkpoint: dict, path: str, log_dir: str, action_std: float | None) -> dict:
-    """The --init_policy checkpoint (`as_actor_checkpoint`'s) copied into the run's folder as init_policy.pt (where
-    the run started stays with it), with the actor's action noise set to `action_std` when given."""
+def initial_policy_checkpoint(checkpoint: dict, path: str, log_dir: str, action_std: float | None) -> dict:
+    """The --init_policy checkpoint (`as_policy_checkpoint`'s) copied into the run's folder as init_policy.pt (where
+    the run started stays with it), with the policy's action noise set to `action_std` when given."""
     import torch
 
     if action_std is not None:
-        actor = checkpoint["actor_state_dict"]
-        if "distribution.std_param" in actor:
-            actor["distribution.std_param"] = torch.full_like(actor["distribution.std_param"], action_std)
-        elif "distribution.log_std_param" in actor:
-            actor["distribution.log_std_param"] = torch.full_like(actor["distribution.log_std_param"],
-                                                                  math.log(action_std))
+        policy = checkpoint.get("actor_state_dict") or checkpoint["student_state_dict"]
+        if "distribution.std_param" in policy:
+            policy["distribution.std_param"] = torch.full_like(policy["distribution.std_param"], action_std)
+        elif "distribution.log_std_param" in policy:
+            policy["distribution.log_std_param"] = torch.full_like(policy["distribution.log_std_param"],
+                                                                   math.log(action_std))
         else:
-            cli.fail(f"--init_action_std: the actor in {path} has no state-independent std to reset")
+            cli.fail(f"--init_action_std: the policy in {path} has no state-independent std to reset")
         print(f"[agile] action noise reset to std {action_std}")
     if log_dir is not None:
         torch.save(checkpoint, os.path.join(log_dir, "init_policy.pt"))
@@ -191,8 +200,6 @@ def distillation_teacher(args, agent_cfg, resuming: bool) -> str | None:
         if args.teacher:
             cli.fail(f"--teacher: {args.task} is trained by PPO, not distilled from a teacher")
         return None
-    if args.init_policy:
-        cli.fail(f"--init_policy: {args.task} is distilled; its student starts fresh or from --resume")
     if resuming:
         return None
     path = args.teacher or agile.tasks.pretrained_policy(agent_cfg.teacher_task)
@@ -214,7 +221,8 @@ def main(argv=None) -> None:
     parser.add_argument("--checkpoint", default=None, help="checkpoint file to resume from")
     parser.add_argument("--init_policy", default=None, action="append", metavar="PATH",
                         help="start a new run from this checkpoint's actor weights only (fresh critic, optimizer and "
-                        "iteration count), e.g. a shipped policy to fine-tune on a changed task; for a multi-agent "
+                        "iteration count), e.g. a shipped policy to fine-tune on a changed task; a distilled task's "
+                        "student from a distilled student's weights (its distillation goes on); for a multi-agent "
                         "task GROUP=PATH, once per agent group to initialise")
     parser.add_argument("--init_action_std", type=float, default=None, metavar="STD",
                         help="with --init_policy: reset the actor's action noise to STD (in action units), e.g. to "
@@ -286,10 +294,12 @@ def main(argv=None) -> None:
     if args.init_action_std is not None and (not args.init_policy or not args.init_action_std > 0):
         cli.fail("--init_action_std needs --init_policy and a positive value "
                  "(a new run's initial std is agent.actor.distribution_cfg.init_std)")
+    from agile.rl_env.rsl_rl.runner_cfg import is_distillation
+
     init_contents = None
     if args.init_policy:  # refused before the env is built when it holds no policy
-        init_contents = as_actor_checkpoint(cli.read_checkpoint(args.init_policy, args.trust_checkpoint),
-                                            args.init_policy)
+        init_contents = as_policy_checkpoint(cli.read_checkpoint(args.init_policy, args.trust_checkpoint),
+                                             args.init_policy, is_distillation(agent_cfg))
     teacher_path = distillation_teacher(args, agent_cfg, resuming=resume_path is not None)
     if args.inject_nan_actions is not None:
         share, every = args.inject_nan_actions
@@ -339,9 +349,10 @@ def main(argv=None) -> None:
         except ValueError as err:
             cli.fail(str(err))
     if args.init_policy:
-        print(f"[agile] actor initialised from {args.init_policy}")
-        start = initial_actor_checkpoint(init_contents, args.init_policy, log_dir, args.init_action_std)
-        restore_runner(runner, start, load_cfg={"actor": True})
+        policy_key = "student" if is_distillation(agent_cfg) else "actor"
+        print(f"[agile] {policy_key} initialised from {args.init_policy}")
+        start = initial_policy_checkpoint(init_contents, args.init_policy, log_dir, args.init_action_std)
+        restore_runner(runner, start, load_cfg={policy_key: True})
     iterations, warmup = agent_cfg.max_iterations, 0
     if args.init_policy:
         warmup = min(getattr(agent_cfg, "critic_warmup_iterations", 0), iterations)
