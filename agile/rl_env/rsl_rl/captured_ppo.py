@@ -69,9 +69,14 @@ class CapturedPPO(SyncFreePPO):
         for batch in self.storage.mini_batch_generator(self.num_mini_batches, self.num_learning_epochs):
             self._load_mini_batch(batch)
             if graph is None:
+                # captured on self.stream by the graph's own calls: the torch.cuda.graph context would also empty the
+                # allocator's cache at every update, handing the rollout's memory back to CUDA
                 graph = torch.cuda.CUDAGraph()
-                with torch.cuda.graph(graph, stream=self.stream):
+                graph.capture_begin()
+                try:
                     self.mini_batch_step(self._fixed_batch(), self.sums)
+                finally:
+                    graph.capture_end()
             graph.replay()
         # kept until the next update captures its own: its memory is released only once its replays have run
         self.graph = graph
