@@ -65,6 +65,16 @@ def test_missed_criteria():
     assert missed_criteria({"episode_metrics": {"reference/object_lifted": 0.5}}, {}, minima) == [
         "reference/object_lifted 0.5 < 0.8"]
     assert missed_criteria({}, {}, minima) == ["reference/object_lifted not measured (minimum 0.8)"]
+    # a maximum on one of eval.py's error_by_command breakdowns bounds every bin with steps (HeightTracking-G1: the
+    # height error in each commanded-height band), each missing bin named; a breakdown not measured is a miss
+    bins = {"error_by_command": {"height_error_m_by_height_m": [
+        {"command": [0.0, 0.2], "error": 0.047, "steps": 6136}, {"command": [0.2, 0.4], "error": 0.098, "steps": 8367},
+        {"command": [0.8, 0.9], "error": 0.3, "steps": 0}, {"command": [0.9, None], "error": 0.053, "steps": 26018}]}}
+    assert missed_criteria(bins, {"height_error_m_by_height_m": 0.05}) == [
+        "height_error_m_by_height_m [0.2, 0.4) 0.098 > 0.05", "height_error_m_by_height_m [0.9, ) 0.053 > 0.05"]
+    assert missed_criteria(bins, {"height_error_m_by_height_m": 0.1}) == []
+    assert missed_criteria({}, {"height_error_m_by_height_m": 0.05}) == [
+        "height_error_m_by_height_m not measured (maximum 0.05)"]
 
 
 def test_pick_place_and_height_tracking_carry_their_issues_figures():
@@ -75,7 +85,8 @@ def test_pick_place_and_height_tracking_carry_their_issues_figures():
     assert pick_place.minima == {"reference/object_lifted": 0.8, "reference/object_at_goal": 0.6}
     assert (pick_place.eval_settings["num_envs"], pick_place.eval_settings["episode_length_s"]) == (256, 8.0)
     height = task_entry("HeightTracking-G1-v0")
-    assert height.criteria == {"fall_rate": 0.05, "height/height_error_m": 0.05} and not height.minima
+    assert height.criteria == {"fall_rate": 0.05, "height/height_error_m": 0.05, "height_error_m_by_height_m": 0.05}
+    assert not height.minima
 
 
 # What agile/tasks/velocity/t1/velocity_env_cfg.py and g1/velocity_history_env_cfg.py set differently (the shared

@@ -106,16 +106,28 @@ def evaluated_tasks() -> list[TaskEntry]:
 
 def missed_criteria(metrics: dict, criteria: dict, minima: dict | None = None) -> list[str]:
     """'metric value > maximum' (or '< minimum') for each criterion the metrics miss, looked up among eval.py's
-    top-level metrics, then its `episode_metrics`; a criterion whose metric is absent is a miss too (an eval that did
-    not measure it cannot pass it)."""
+    top-level metrics, then its `episode_metrics`, then its `error_by_command` breakdowns (a maximum there bounds every
+    bin that has steps, e.g. "height_error_m_by_height_m": each commanded-height band); a criterion whose metric is
+    absent is a miss too (an eval that did not measure it cannot pass it)."""
     episode_metrics = metrics.get("episode_metrics", metrics.get(LEGACY_EPISODE_METRICS_KEY, {}))
+    breakdowns = metrics.get("error_by_command", {})
     missed = []
     for bounds, kind, within, sign in ((criteria, "maximum", lambda v, b: v <= b, ">"),
                                        (minima or {}, "minimum", lambda v, b: v >= b, "<")):
         for name, bound in bounds.items():
+            if kind == "maximum" and name in breakdowns:
+                missed += [f"{name} {_bin_label(row['command'])} {row['error']:.4g} > {bound:g}"
+                           for row in breakdowns[name] if row["steps"] > 0 and not row["error"] <= bound]
+                continue
             value = metrics.get(name, episode_metrics.get(name))
             if value is None:
                 missed.append(f"{name} not measured ({kind} {bound})")
             elif not within(value, bound):  # NaN misses
                 missed.append(f"{name} {value:.4g} {sign} {bound:g}")
     return missed
+
+
+def _bin_label(command: list) -> str:
+    """The label of a breakdown bin [low, high], e.g. "[0.2, 0.4)" (high None: open-ended)."""
+    low, high = command
+    return f"[{low:g}, {'' if high is None else f'{high:g}'})"
