@@ -25,7 +25,14 @@ class FakeEnv:
     num_actions = NUM_ACTIONS
 
 
-def make_algorithm(cls, desired_kl: float, device: str = "cpu"):
+def flip(env, obs=None, actions=None):
+    """A left-right mirror for the test: sign flips (the layout does not matter to the update's math)."""
+    obs_aug = None if obs is None else TensorDict({k: torch.cat((obs[k], -obs[k])) for k in obs.keys()},
+                                                  batch_size=[obs.batch_size[0] * 2])
+    return obs_aug, None if actions is None else torch.cat((actions, -actions))
+
+
+def make_algorithm(cls, desired_kl: float, device: str = "cpu", symmetry_cfg: dict | None = None):
     obs = TensorDict({"policy": torch.zeros(NUM_ENVS, OBS_DIM, device=device)}, batch_size=[NUM_ENVS])
     cfg = {"obs_groups": {"actor": ["policy"], "critic": ["policy"]}, "num_steps_per_env": NUM_STEPS,
            "multi_gpu": None,
@@ -35,7 +42,7 @@ def make_algorithm(cls, desired_kl: float, device: str = "cpu"):
                       "obs_normalization": True},
            "algorithm": {"class_name": cls, "learning_rate": 1.0e-3, "schedule": "adaptive",
                          "desired_kl": desired_kl, "num_learning_epochs": 3, "num_mini_batches": 2,
-                         "entropy_coef": 0.005}}
+                         "entropy_coef": 0.005, "symmetry_cfg": symmetry_cfg}}
     torch.manual_seed(0)
     return PPO.construct_algorithm(obs, FakeEnv(), cfg, device)
 
@@ -79,6 +86,28 @@ def test_the_sync_free_update_matches_rsl_rls_update(desired_kl, cls):
     if desired_kl == 10.0:
         assert lr > 1.0e-3
     for name in ("value", "surrogate", "entropy"):
+        assert losses[name] == pytest.approx(plain_losses[name], rel=1e-4, abs=1e-6), name
+    for name, value in plain_actor.items():
+        assert torch.allclose(actor[name], value, rtol=1e-4, atol=1e-6), name
+
+
+@pytest.mark.parametrize("mirror_loss", [False, True])
+def test_the_sync_free_update_matches_rsl_rls_update_with_symmetry(mirror_loss):
+    """Mirrored samples in every mini-batch, and the mirror loss either trained on or only logged (then computed
+    without autograd here): the same losses and weights as rsl-rl's update."""
+    symmetry = {"use_data_augmentation": True, "use_mirror_loss": mirror_loss, "mirror_loss_coeff": 0.5,
+                "data_augmentation_func": flip}
+    plain = make_algorithm("PPO", 0.01, symmetry_cfg=dict(symmetry))
+    sync_free = make_algorithm(SyncFreePPO, 0.01, symmetry_cfg=dict(symmetry))
+    sync_free.actor.load_state_dict(plain.actor.state_dict())
+    sync_free.critic.load_state_dict(plain.critic.state_dict())
+    results = []
+    for algorithm in (plain, sync_free):
+        fill_rollout(algorithm)
+        torch.manual_seed(3)
+        results.append((algorithm.update(), copy.deepcopy(algorithm.actor.state_dict())))
+    (plain_losses, plain_actor), (losses, actor) = results
+    for name in ("value", "surrogate", "entropy", "symmetry"):
         assert losses[name] == pytest.approx(plain_losses[name], rel=1e-4, abs=1e-6), name
     for name, value in plain_actor.items():
         assert torch.allclose(actor[name], value, rtol=1e-4, atol=1e-6), name

@@ -78,10 +78,12 @@ class SyncFreePPO(PPO):
                 value_loss = (batch.returns - values).pow(2).mean()
             loss = surrogate_loss + self.value_loss_coef * value_loss - self.entropy_coef * entropy.mean()
             symmetry_loss = torch.zeros((), device=self.device)
-            if self.symmetry:
+            if self.symmetry and self.symmetry.use_mirror_loss:
                 symmetry_loss = self.symmetry.compute_loss(self.actor, batch, original_batch_size)
-                if self.symmetry.use_mirror_loss:
-                    loss = loss + self.symmetry.mirror_loss_coeff * symmetry_loss
+                loss = loss + self.symmetry.mirror_loss_coeff * symmetry_loss
+            elif self.symmetry:  # logged only: its forward pass needs no autograd record
+                with torch.no_grad():
+                    symmetry_loss = self.symmetry.compute_loss(self.actor, batch, original_batch_size)
         self.optimizer.zero_grad()
         loss.backward()
         if self.is_multi_gpu:
