@@ -50,10 +50,15 @@ def training_command(args, log_root: str) -> list[str]:
     return [sys.executable, "-m", "agile.run.train", *train_args, "--device", args.device]
 
 
+def all_checkpoints(log_root: str) -> list[tuple[int, Path]]:
+    """(iteration, path) of every model_<it>.pt of the run under log_root, in order."""
+    return sorted((int(p.stem.split("_")[1]), p) for p in Path(log_root).glob("*/*/model_*.pt"))
+
+
 def newest_checkpoint(log_root: str) -> tuple[int, Path] | None:
     """(iteration, path) of the newest model_<it>.pt of the run under log_root, or None."""
-    found = [(int(p.stem.split("_")[1]), p) for p in Path(log_root).glob("*/*/model_*.pt")]
-    return max(found) if found else None
+    found = all_checkpoints(log_root)
+    return found[-1] if found else None
 
 
 def evaluator(args, device: str):
@@ -106,11 +111,6 @@ def wait_for_first_iteration(log_path: Path, process, start: float, budget_s: fl
             return time.monotonic() - start
         time.sleep(0.5)
     return None
-
-
-def all_checkpoints(log_root: str) -> list[tuple[int, Path]]:
-    """(iteration, path) of every model_<it>.pt of the run under log_root, in order."""
-    return sorted((int(p.stem.split("_")[1]), p) for p in Path(log_root).glob("*/*/model_*.pt"))
 
 
 class CheckpointJudge:

@@ -136,32 +136,31 @@ def check_rank_weights(runner, rank) -> None:
         print(f"[agile] all {rank.world_size} ranks hold the same weights", flush=True)
 
 
-def as_policy_checkpoint(checkpoint: dict, path: str, distilled: bool) -> dict:
-    """The --init_policy checkpoint (contents of `path`) with its policy where the run's algorithm loads it. PPO: the
-    actor (a PPO checkpoint as it is; a distilled student's "student_state_dict" as the actor: fine-tuning by PPO).
-    Distillation: the student (a distilled student's checkpoint or shipped file: its distillation goes on)."""
-    if distilled:
-        if "student_state_dict" not in checkpoint:
-            cli.fail(f"--init_policy {path}: a distilled task's student starts from a distilled student (its "
-                     f"student_state_dict); the file holds {sorted(checkpoint)}")
-        return {"student_state_dict": checkpoint["student_state_dict"], "iter": checkpoint.get("iter", 0),
-                "infos": checkpoint.get("infos")}
-    if "actor_state_dict" in checkpoint:
+def as_policy_checkpoint(checkpoint: dict, path: str, state_key: str) -> dict:
+    """The --init_policy checkpoint (contents of `path`) with its policy under `state_key`, where the run's algorithm
+    loads it (`policy_state_key`). PPO ("actor_state_dict"): a PPO checkpoint as it is, a distilled student's
+    "student_state_dict" as the actor (fine-tuning by PPO). Distillation ("student_state_dict"): a distilled
+    student's checkpoint or shipped file (its distillation goes on)."""
+    if state_key in checkpoint:
         return checkpoint
+    if state_key == "student_state_dict":
+        cli.fail(f"--init_policy {path}: a distilled task's student starts from a distilled student (its "
+                 f"student_state_dict); the file holds {sorted(checkpoint)}")
     if "student_state_dict" not in checkpoint:
         cli.fail(f"--init_policy {path}: no actor_state_dict or student_state_dict in it (it holds "
                  f"{sorted(checkpoint)})")
-    return {"actor_state_dict": checkpoint["student_state_dict"], "iter": checkpoint.get("iter", 0),
+    return {state_key: checkpoint["student_state_dict"], "iter": checkpoint.get("iter", 0),
             "infos": checkpoint.get("infos")}
 
 
-def initial_policy_checkpoint(checkpoint: dict, path: str, log_dir: str, action_std: float | None) -> dict:
+def initial_policy_checkpoint(checkpoint: dict, path: str, state_key: str, log_dir: str,
+                              action_std: float | None) -> dict:
     """The --init_policy checkpoint (`as_policy_checkpoint`'s) copied into the run's folder as init_policy.pt (where
     the run started stays with it), with the policy's action noise set to `action_std` when given."""
     import torch
 
     if action_std is not None:
-        policy = checkpoint.get("actor_state_dict") or checkpoint["student_state_dict"]
+        policy = checkpoint[state_key]
         if "distribution.std_param" in policy:
             policy["distribution.std_param"] = torch.full_like(policy["distribution.std_param"], action_std)
         elif "distribution.log_std_param" in policy:
@@ -294,12 +293,12 @@ def main(argv=None) -> None:
     if args.init_action_std is not None and (not args.init_policy or not args.init_action_std > 0):
         cli.fail("--init_action_std needs --init_policy and a positive value "
                  "(a new run's initial std is agent.actor.distribution_cfg.init_std)")
-    from agile.rl_env.rsl_rl.runner_cfg import is_distillation
+    from agile.rl_env.rsl_rl import policy_obs_set, policy_state_key
 
     init_contents = None
     if args.init_policy:  # refused before the env is built when it holds no policy
         init_contents = as_policy_checkpoint(cli.read_checkpoint(args.init_policy, args.trust_checkpoint),
-                                             args.init_policy, is_distillation(agent_cfg))
+                                             args.init_policy, policy_state_key(agent_cfg))
     teacher_path = distillation_teacher(args, agent_cfg, resuming=resume_path is not None)
     if args.inject_nan_actions is not None:
         share, every = args.inject_nan_actions
@@ -349,10 +348,10 @@ def main(argv=None) -> None:
         except ValueError as err:
             cli.fail(str(err))
     if args.init_policy:
-        policy_key = "student" if is_distillation(agent_cfg) else "actor"
-        print(f"[agile] {policy_key} initialised from {args.init_policy}")
-        start = initial_policy_checkpoint(init_contents, args.init_policy, log_dir, args.init_action_std)
-        restore_runner(runner, start, load_cfg={policy_key: True})
+        print(f"[agile] {policy_obs_set(agent_cfg)} initialised from {args.init_policy}")
+        start = initial_policy_checkpoint(init_contents, args.init_policy, policy_state_key(agent_cfg), log_dir,
+                                          args.init_action_std)
+        restore_runner(runner, start, load_cfg={policy_obs_set(agent_cfg): True})
     iterations, warmup = agent_cfg.max_iterations, 0
     if args.init_policy:
         warmup = min(getattr(agent_cfg, "critic_warmup_iterations", 0), iterations)
