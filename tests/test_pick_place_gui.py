@@ -1,26 +1,29 @@
-"""PickPlace-G1-Debug-v0 in the GUI (without a browser): the right arm's sliders move the arm, the object's sliders
-pose the cube, and the reward plot follows the palm-to-cube distance."""
+"""PickPlace-G1-Debug-v0 in the GUI (without a browser): the task's MDP, one env; its sliders drive the upper body
+through the task's delta action and the frozen lower body through its command; a PickPlace-G1-v0 policy plays
+in it unchanged, from `agile play`."""
 
 from __future__ import annotations
 
 import gymnasium as gym
 import pytest
+import torch
 from browser import free_port
 
-import agile.tasks  # noqa: F401
+import agile.tasks
 from agile.gui import ActionSliders, BrowserViewer
-from agile.assets.unitree_g1_with_hands import PALM_BODY, GRASP_POINT_M
-from agile.tasks.pick_place import mdp
-from agile.rl_env.managers import SceneEntityCfg
+
+DEBUG = "PickPlace-G1-Debug-v0"
 
 
 @pytest.fixture(scope="module")
 def gui():
-    env = gym.make("PickPlace-G1-Debug-v0", device="cpu").unwrapped
+    env = gym.make(DEBUG, device="cpu").unwrapped
+    env.reset()
     viewer = BrowserViewer(env, free_port())
     sliders = ActionSliders(viewer.server, env)
     yield env, viewer, sliders
     viewer.close()
+    env.close()
 
 
 def step(env, viewer, sliders, count: int = 10) -> None:
@@ -30,34 +33,72 @@ def step(env, viewer, sliders, count: int = 10) -> None:
         sliders.update()
 
 
-def test_arm_sliders_move_the_right_arm_only(gui):
+def test_the_debug_variant_is_the_task_with_one_env_from_the_first_frame():
+    task, _ = agile.tasks.load_cfgs("PickPlace-G1-v0")
+    debug, _ = agile.tasks.load_cfgs(DEBUG)
+    assert debug.num_envs == 1 and debug.commands.reference.start_step_range == (0, 0)
+    for section in ("actions", "observations", "rewards", "terminations", "events"):
+        assert getattr(debug, section) == getattr(task, section), section
+    assert debug.scene == task.scene
+
+
+def test_arm_sliders_set_the_upper_body_targets_through_the_delta_action(gui):
     env, viewer, sliders = gui
     (joints,) = sliders.joints
-    assert all(name.startswith("right_") for name in joints.term.joint_names) and len(joints.sliders) == 14
+    term = env.action_manager.get_term("upper_body_joint_pos")
+    assert joints.term is term and len(joints.sliders) == 17
     values = joints.targets()
-    values[joints.term.joint_names.index("right_elbow_joint")] = 1.2
+    elbow = term.joint_names.index("right_elbow_joint")
+    start = float(term.robot.joint_pos[0, term.joint_ids[elbow]])
+    values[elbow] = 1.2
     joints.set_targets(values)
     step(env, viewer, sliders, count=25)
     robot = env.scene["robot"]
-    elbow = robot.joint_names.index("right_elbow_joint")
-    assert robot.joint_pos_target[0, elbow].item() == pytest.approx(1.2)
-    assert robot.joint_pos[0, elbow].item() == pytest.approx(1.2, abs=0.1)
-    assert robot.root_pos_env[0, 2].item() == pytest.approx(robot.default_root_pose[0, 2].item(), abs=1e-4)  # fixed
+    robot_elbow = robot.joint_names.index("right_elbow_joint")
+    assert robot.joint_pos_target[0, robot_elbow].item() == pytest.approx(1.2)
+    assert robot.joint_pos[0, robot_elbow].item() - start > 0.5  # it moves there (the arm sags a little under gravity)
 
 
-def test_object_sliders_pose_the_cube_and_the_palm_reward_follows(gui):
+def test_command_sliders_start_standing_and_walk_the_frozen_lower_body(gui):
     env, viewer, sliders = gui
-    (objects,) = [p for p in sliders.parts if p not in sliders.joints]
-    step(env, viewer, sliders, count=2)
-    far = viewer.rewards.latest()["palm_to_object"]
-    palm = SceneEntityCfg("robot", body_names=PALM_BODY)
-    palm.resolve(env)
-    palm_pos, _ = mdp.palm_pose_w(env, palm, GRASP_POINT_M)
-    offset = (palm_pos[0] - env.env_origins[0]) - objects.default_pos
-    for axis in range(3):  # the cube to the palm
-        objects.sliders[axis].value = float(objects.default_pos[axis] + offset[axis])
-    step(env, viewer, sliders, count=2)
-    near = viewer.rewards.latest()["palm_to_object"]
-    assert far < 0.5 < near, (far, near)
-    cube = env.scene["object"]
-    assert cube.root_pos_w[0].tolist() == pytest.approx(palm_pos[0].tolist(), abs=0.02)
+    (command,) = [p for p in sliders.parts if p not in sliders.joints]
+    term = env.action_manager.get_term("lower_body_joint_pos")
+    assert [s.value for s in command.sliders] == pytest.approx([0.0, 0.0, 0.0, 0.72])
+    assert [s.min for s in command.sliders] == pytest.approx(term.command_low.tolist())
+    assert [s.max for s in command.sliders] == pytest.approx(term.command_high.tolist())
+    robot = env.scene["robot"]
+    start_y = float(robot.root_pos_w[0, 1])
+    command.sliders[1].value = -0.4  # sideways, to its right along the table (which stands 0.28 m ahead)
+    step(env, viewer, sliders, count=100)
+    assert term.command[0].tolist() == pytest.approx([0.0, -0.4, 0.0, 0.72])
+    # 2 s at 0.4 m/s asked, from standing: 0.23 m measured (CPU)
+    assert float(robot.root_pos_w[0, 1]) - start_y < -0.1
+    sliders.after_reset()
+    assert [s.value for s in command.sliders] == pytest.approx([0.0, 0.0, 0.0, 0.72])
+
+
+def test_play_runs_a_pick_place_policy_in_the_debug_variant(tmp_path, capsys):
+    from rsl_rl.runners import OnPolicyRunner
+
+    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+    from agile.run import play
+
+    env = gym.make("PickPlace-G1-v0", num_envs=2, device="cpu").unwrapped
+    _, agent_cfg = agile.tasks.load_cfgs("PickPlace-G1-v0")
+    runner = OnPolicyRunner(RslRlVecEnvWrapper(env), to_rsl_rl_dict(agent_cfg), log_dir=None, device="cpu")
+    checkpoint = tmp_path / "model_0.pt"
+    runner.save(str(checkpoint))
+    env.close()
+    play.main(["--task", DEBUG, "--checkpoint", str(checkpoint), "--device", "cpu", "--viewer", "none",
+               "--num_steps", "3", "--trust_checkpoint"])
+    out = capsys.readouterr().out
+    assert f"{DEBUG}: 1 envs on cpu, policy {checkpoint}" in out and "3 steps" in out
+
+
+def test_play_opens_the_debug_variant_with_the_shipped_policy_or_else_its_sliders(capsys):
+    from agile.run import play
+
+    play.main(["--task", DEBUG, "--device", "cpu", "--num_steps", "2", "--port", str(free_port())])
+    shipped = agile.tasks.pretrained_policy(DEBUG)
+    source = f"policy {shipped}" if shipped is not None else "the GUI's sliders"
+    assert f"{DEBUG}: 1 envs on cpu, {source}" in capsys.readouterr().out

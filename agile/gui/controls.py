@@ -2,11 +2,15 @@
 
 For each action term the GUI knows how to drive, a folder of controls; `actions()` assembles the env's action
 from them in term order, so the env is stepped exactly as a policy would step it:
-- `JointPositionAction`: a slider per joint showing its target [rad] within the model's limits, grouped by
-  limb, with buttons Reset (default pose and env reset), Zero all joints and Mirror left → right;
+- `JointPositionAction` and `DeltaJointPositionAction`: a slider per joint showing its target [rad] within the
+  model's limits, grouped by limb, with buttons Reset (default pose and env reset), Zero all joints and Mirror
+  left → right; the term turns the targets into its action (`actions_for_targets`: for a delta action, the step
+  from its current targets);
 - `MirroredJointPositionAction`: a line showing, from the simulation, the target of the last moved joint and
   the target the mirrored robot received for its partner joint;
-- `ObjectPoseAction`: position [m] (env frame) and roll-pitch-yaw [rad] sliders.
+- `ObjectPoseAction`: position [m] (env frame) and roll-pitch-yaw [rad] sliders;
+- `FrozenPolicyAction`: the command to the frozen lower-body policy (vx, vy, wz, base height) within the term's
+  ranges, with a Stand button.
 Terms without a policy output need no controls; a term with one that has no controls is an error naming it.
 Slider callbacks run on viser's threads and only record what was moved; the env is read and written on the
 thread that steps it.
@@ -19,7 +23,9 @@ import re
 
 import torch
 
-from agile.rl_env.mdp.actions import JointPositionAction, MirroredJointPositionAction, ObjectPoseAction
+from agile.rl_env.mdp.actions import (DeltaJointPositionAction, FrozenPolicyAction, JointPositionAction,
+                                      MirroredJointPositionAction, ObjectPoseAction)
+from agile.rl_env.mdp.actions.frozen_policy_action import COMMAND_AXES
 from agile.rl_env.mdp.actions.object_pose_action import AXES
 from agile.rl_env.mdp.symmetry import joint_mirror, mirror_within
 
@@ -38,17 +44,16 @@ def limb_of(joint_name: str) -> str:
 
 
 class JointSliders:
-    """A slider per joint of a JointPositionAction term, showing the joint target [rad]."""
+    """A slider per joint of a JointPositionAction or DeltaJointPositionAction term, showing the joint target [rad]."""
 
-    def __init__(self, server, name: str, term: JointPositionAction, mirror: MirroredJointPositionAction | None):
+    def __init__(self, server, name: str, term: JointPositionAction | DeltaJointPositionAction,
+                 mirror: MirroredJointPositionAction | None):
         self.term = term
         self.mirror = mirror
         robot = term.robot
         ids = term.joint_ids.tolist()
         limits = robot.joint_pos_limits[0, term.joint_ids].cpu()
         self.default_targets = robot.default_joint_pos[0, term.joint_ids].cpu()
-        self.offset = term.offset[0].cpu()
-        self.scale = term.scale.cpu()
         perm, sign = joint_mirror(robot.joint_names, robot.joint_axis[0].cpu().numpy())
         self.partner, self.partner_sign = mirror_within(ids, perm, sign)
         # slider ranges: the model's limits; a joint without limits turns a half circle either way
@@ -113,8 +118,10 @@ class JointSliders:
         self.set_targets(new)
 
     def actions(self) -> torch.Tensor:
-        """(dim,) the term's action that gives the sliders' targets (target = action · scale + offset)."""
-        return (torch.tensor(self.targets()) - self.offset) / self.scale
+        """(num_envs, dim) the term's action that gives the sliders' targets, in every env."""
+        env = self.term.env
+        targets = torch.tensor(self.targets(), device=env.device).expand(env.num_envs, -1)
+        return self.term.actions_for_targets(targets)
 
     def update(self) -> None:
         """Show the last moved joint's target and its mirror's, both read from the simulation."""
@@ -133,6 +140,7 @@ class ObjectPoseSliders:
     """Position [m] (env frame) and roll, pitch, yaw [rad] of an object posed by an ObjectPoseAction term."""
 
     def __init__(self, server, name: str, term: ObjectPoseAction):
+        self.env = term.env
         self.default_pos = term.object.default_root_pose[0, :3].cpu()  # the default pose is env-relative
         low, high = term.low.cpu().tolist(), term.high.cpu().tolist()
         self.sliders = []
@@ -149,11 +157,35 @@ class ObjectPoseSliders:
     def actions(self) -> torch.Tensor:
         values = torch.tensor([float(s.value) for s in self.sliders])
         values[:3] -= self.default_pos
-        return values
+        return values.to(self.env.device).expand(self.env.num_envs, -1)
 
     def reset(self) -> None:
         for i, slider in enumerate(self.sliders):
             slider.value = float(self.default_pos[i]) if i < 3 else 0.0
+
+
+class CommandSliders:
+    """The command a FrozenPolicyAction term gives its frozen lower-body policy: [vx m/s, vy m/s, wz rad/s, base
+    height m] within the term's ranges. Stand (and every env reset) puts it back to standing: no velocity (0, or
+    the range's bound nearest to it) at the highest base height allowed."""
+
+    def __init__(self, server, name: str, term: FrozenPolicyAction):
+        self.env = term.env
+        low, high = term.command_low.tolist(), term.command_high.tolist()
+        self.standing = [min(max(0.0, lo), hi) for lo, hi in zip(low[:3], high[:3])] + [high[3]]
+        with server.gui.add_folder(f"Command: {name} ({term.cfg.asset_name})", order=2.5):
+            stand = server.gui.add_button("Stand", hint="no velocity, the highest base height allowed")
+            self.sliders = [server.gui.add_slider(axis, min=lo, max=hi, step=0.01, initial_value=value)
+                            for axis, lo, hi, value in zip(COMMAND_AXES, low, high, self.standing)]
+        stand.on_click(lambda _event: self.reset())
+
+    def actions(self) -> torch.Tensor:
+        values = torch.tensor([float(s.value) for s in self.sliders], device=self.env.device)
+        return values.expand(self.env.num_envs, -1)
+
+    def reset(self) -> None:
+        for slider, value in zip(self.sliders, self.standing):
+            slider.value = value
 
 
 class ActionSliders:
@@ -165,13 +197,16 @@ class ActionSliders:
         mirrors = {t.cfg.source_action_name: t for t in terms.values() if isinstance(t, MirroredJointPositionAction)}
         self.parts = []
         for name, term in terms.items():
-            if isinstance(term, JointPositionAction):
+            if isinstance(term, (JointPositionAction, DeltaJointPositionAction)):
                 self.parts.append(JointSliders(server, name, term, mirrors.get(name)))
             elif isinstance(term, ObjectPoseAction):
                 self.parts.append(ObjectPoseSliders(server, name, term))
+            elif isinstance(term, FrozenPolicyAction):
+                self.parts.append(CommandSliders(server, name, term))
             elif term.action_dim > 0:
                 raise ValueError(f"action term '{name}' ({type(term).__name__}) has no GUI controls; sliders drive "
-                                 f"JointPositionAction and ObjectPoseAction terms")
+                                 f"JointPositionAction, DeltaJointPositionAction, ObjectPoseAction and "
+                                 f"FrozenPolicyAction terms")
         self.joints = [p for p in self.parts if isinstance(p, JointSliders)]
 
     @property
@@ -179,17 +214,17 @@ class ActionSliders:
         return any(p.reset_requested for p in self.joints)
 
     def after_reset(self) -> None:
-        """The env was reset: object sliders back to their default pose too; reset requests consumed."""
+        """The env was reset: object sliders back to their default pose and commands to standing too; reset
+        requests consumed."""
         for part in self.parts:
-            if isinstance(part, ObjectPoseSliders):
+            if isinstance(part, (ObjectPoseSliders, CommandSliders)):
                 part.reset()
             else:
                 part.reset_requested = False
 
     def actions(self) -> torch.Tensor:
-        """(num_envs, action dim) on the env's device; every env receives the sliders' action."""
-        action = torch.cat([p.actions() for p in self.parts]).to(self.env.device, torch.float32)
-        return action.expand(self.env.num_envs, -1)
+        """(num_envs, action dim) on the env's device; every env receives the sliders' targets and commands."""
+        return torch.cat([p.actions() for p in self.parts], dim=-1).float()
 
     def update(self) -> None:
         for part in self.joints:

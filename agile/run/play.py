@@ -5,11 +5,13 @@
     agile play --task Velocity-T1-v0 --sinusoidal       # test actions, no policy
     agile play --task Velocity-G1-History-v0 --viewer viser   # browser viewer on http://localhost:8080
     agile play --task Debug-G1-v0        # joint sliders and the mirrored twin, in the browser
+    agile play --task PickPlace-G1-Debug-v0 --checkpoint checkpoints/PickPlace-G1-v0_it3600.pt   # a policy, live
     agile play --task MotionTracking-G1-v0 --checkpoint model.pt --num_envs 1 --num_steps 400 \
         --video squat.mp4 --video_reference env.commands.motion.start_frame=0 env.episode_length_s=8.0
 
 Without --checkpoint the task's shipped policy runs if agile has one (agile/data/policy/), else
-sinusoidal test actions. A debug task opens the browser GUI and takes its actions from the sliders.
+sinusoidal test actions. A debug task opens the browser GUI; it plays the shipped policy of the task it debugs
+(PickPlace-G1-Debug-v0: PickPlace-G1-v0's) or --checkpoint, and without either its sliders drive it.
 Otherwise headless by default. Observation noise and curricula are switched off.
 
 --video renders env 0 into an mp4 (Newton's ray-tracing camera, headless). With --video_reference, for a task
@@ -145,14 +147,15 @@ def main(argv=None) -> None:
     except KeyError as err:
         cli.fail(err.args[0])
     viewer_on = (args.viewer or ("viser" if debug_task else "none")) == "viser"
-    slider_actions = debug_task and viewer_on and args.checkpoint is None and not args.sinusoidal
     num_steps = args.num_steps if args.num_steps is not None else (None if viewer_on else DEFAULT_HEADLESS_STEPS)
 
     checkpoint = args.checkpoint
     if args.validate_fallen_states and (checkpoint or args.sinusoidal):
         cli.fail("--validate_fallen_states shows the dataset with zero actions: without --checkpoint or --sinusoidal")
-    if checkpoint is None and not args.sinusoidal and not slider_actions and not args.validate_fallen_states:
+    if checkpoint is None and not args.sinusoidal and not args.validate_fallen_states:
+        # a debug task plays the policy of the task it debugs where agile ships one, else its sliders drive it
         checkpoint = cli.shipped_policy(args)
+    slider_actions = debug_task and viewer_on and checkpoint is None and not args.sinusoidal
     contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint) if checkpoint and not args.sinusoidal \
         else None
     env_cfg, agent_cfg, device = cli.load_task(args)

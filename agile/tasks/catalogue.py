@@ -15,9 +15,11 @@ from agile.utils.config import load_entry_point
 
 CATALOGUE_KINDS = ("trainable", "distilled", "debug", "multi_agent", "record")
 """trainable: PPO on its own reward; distilled: a student whose agent cfg is a DistillationRunnerCfg;
-debug: run by hand in the GUI; multi_agent: a MultiAgentEnv (several robots, own rates)."""
+debug: watched and driven by hand in the GUI (one may play the policy of the task it debugs); multi_agent: a
+MultiAgentEnv (several robots, own rates)."""
 EVALUATED_KINDS = ("trainable", "distilled")
-"""The kinds whose shipped policy eval_all.py evaluates (debug tasks have no policy, multi-agent ones their own eval)."""
+"""The kinds whose shipped policy eval_all.py evaluates (a debug task's policy, if any, is another task's, evaluated
+there; multi-agent tasks have their own eval)."""
 
 DEFAULT_EVAL_SETTINGS = {"num_envs": 512, "num_episodes": 1, "episode_length_s": 20.0}
 """GPU evaluation: 512 envs for one 20 s episode each, pushes off (what docs/eval_*_h100.json used)."""

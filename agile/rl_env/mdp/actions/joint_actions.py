@@ -46,6 +46,10 @@ class JointPositionAction(ActionTerm):
         """The joint position targets [rad]."""
         return list(self.joint_names), self.processed_actions
 
+    def actions_for_targets(self, targets: torch.Tensor) -> torch.Tensor:
+        """(N, J) the action whose targets are `targets` [rad] (before the clip): the GUI's joint sliders."""
+        return (targets - self.offset) / self.scale
+
     def process_actions(self, actions: torch.Tensor) -> None:
         self.raw_actions.copy_(actions)
         processed = actions * self.scale + self.offset
@@ -72,6 +76,10 @@ class RelativeJointPositionAction(JointPositionAction):
     """Isaac Lab `RelativeJointPositionAction`: target = the joint's current position + action × scale (+ offset,
     zero by default); `clip` bounds action × scale + offset, the step. A zero action holds the joints where they
     are. The target is set once per env step from the position then (Isaac Lab re-reads it every physics step)."""
+
+    def actions_for_targets(self, targets: torch.Tensor) -> torch.Tensor:
+        """(N, J) the step from where the joints are now to `targets` [rad] (before the clip)."""
+        return (targets - self.robot.joint_pos[:, self.joint_ids] - self.offset) / self.scale
 
     def apply_actions(self) -> None:
         current = self.robot.joint_pos[:, self.joint_ids]

@@ -7,7 +7,7 @@ robot standing; the policy trained here drives the 17 upper-body joints by delta
 a 4-D command [vx, vy, wz, height]. Each episode follows one of the shipped trajectories
 (`agile/data/trajectories/`, made by `scripts/make_pick_place_trajectories.py`) from a random early frame.
 
-The builder `pick_place_env_cfg` makes the task; `debug_env_cfg.py` makes its debug variant from the same scene.
+The builder `pick_place_env_cfg` makes the task; its debug and recording variants are built from it.
 """
 
 from __future__ import annotations
