@@ -77,18 +77,17 @@ def test_command_sliders_start_standing_and_walk_the_frozen_lower_body(gui):
     assert [s.value for s in command.sliders] == pytest.approx([0.0, 0.0, 0.0, 0.72])
 
 
-def test_play_runs_a_pick_place_policy_in_the_debug_variant(tmp_path, capsys):
+def test_play_runs_a_pick_place_policy_in_the_debug_variant(gui, tmp_path, capsys):
     from rsl_rl.runners import OnPolicyRunner
 
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
     from agile.run import play
 
-    env = gym.make("PickPlace-G1-v0", num_envs=2, device="cpu").unwrapped
+    env, _, _ = gui  # the task's observations and actions: a PickPlace-G1-v0 runner is built on it as on the task
     _, agent_cfg = agile.tasks.load_cfgs("PickPlace-G1-v0")
     runner = OnPolicyRunner(RslRlVecEnvWrapper(env), to_rsl_rl_dict(agent_cfg), log_dir=None, device="cpu")
     checkpoint = tmp_path / "model_0.pt"
     runner.save(str(checkpoint))
-    env.close()
     play.main(["--task", DEBUG, "--checkpoint", str(checkpoint), "--device", "cpu", "--viewer", "none",
                "--num_steps", "3", "--trust_checkpoint"])
     out = capsys.readouterr().out
