@@ -57,14 +57,15 @@ def fill_rollout(algorithm, seed: int = 1) -> None:
 
     obs = observe()
     torch.manual_seed(seed + 1)
-    for _ in range(NUM_STEPS):
-        algorithm.act(obs)
-        obs = observe()
-        rewards = torch.randn(NUM_ENVS, generator=generator).to(device)
-        dones = (torch.rand(NUM_ENVS, generator=generator) < 0.1).to(device)
-        algorithm.process_env_step(obs, rewards, dones,
-                                   {"time_outs": torch.zeros(NUM_ENVS, dtype=torch.bool, device=device)})
-    algorithm.compute_returns(obs)
+    with torch.inference_mode():  # as rsl-rl's runner collects a rollout: no autograd record of the acting
+        for _ in range(NUM_STEPS):
+            algorithm.act(obs)
+            obs = observe()
+            rewards = torch.randn(NUM_ENVS, generator=generator).to(device)
+            dones = (torch.rand(NUM_ENVS, generator=generator) < 0.1).to(device)
+            algorithm.process_env_step(obs, rewards, dones,
+                                       {"time_outs": torch.zeros(NUM_ENVS, dtype=torch.bool, device=device)})
+        algorithm.compute_returns(obs)
 
 
 @pytest.mark.parametrize("cls", [SyncFreePPO, CapturedPPO])  # on a CPU CapturedPPO updates as SyncFreePPO does

@@ -13,6 +13,12 @@ normalisers (rsl-rl replaces their std tensor when it learns a rollout), an anne
 actor held during a critic warm-up, a resumed optimizer state. The first update runs eagerly: it creates the
 optimizer's state and the autograd and cuBLAS workspaces that capture must not allocate for the first time.
 
+The rollout must be collected without an autograd record (under `torch.inference_mode()`, as rsl-rl's runner
+collects it): an acting pass with one keeps the parameters' gradient accumulators made on the default stream
+alive, and a captured backward that reaches them makes that stream wait on the capture, which CUDA refuses
+(`cudaErrorStreamCaptureImplicit`: the first GPU test, whose rollout kept an autograd record; the runner's
+benchmark, under inference mode, captured its updates).
+
 Select it with `agent.algorithm.class_name=agile.rl_env.rsl_rl.captured_ppo:CapturedPPO`. On a CPU, or across
 several GPUs (the gradients' all-reduce is not captured), it updates as SyncFreePPO does.
 """
