@@ -32,7 +32,8 @@ def flip(env, obs=None, actions=None):
     return obs_aug, None if actions is None else torch.cat((actions, -actions))
 
 
-def make_algorithm(cls, desired_kl: float, device: str = "cpu", symmetry_cfg: dict | None = None):
+def make_algorithm(cls, desired_kl: float, device: str = "cpu", symmetry_cfg: dict | None = None,
+                   use_mixed_precision: bool = False):
     obs = TensorDict({"policy": torch.zeros(NUM_ENVS, OBS_DIM, device=device)}, batch_size=[NUM_ENVS])
     cfg = {"obs_groups": {"actor": ["policy"], "critic": ["policy"]}, "num_steps_per_env": NUM_STEPS,
            "multi_gpu": None,
@@ -42,7 +43,8 @@ def make_algorithm(cls, desired_kl: float, device: str = "cpu", symmetry_cfg: di
                       "obs_normalization": True},
            "algorithm": {"class_name": cls, "learning_rate": 1.0e-3, "schedule": "adaptive",
                          "desired_kl": desired_kl, "num_learning_epochs": 3, "num_mini_batches": 2,
-                         "entropy_coef": 0.005, "symmetry_cfg": symmetry_cfg}}
+                         "entropy_coef": 0.005, "symmetry_cfg": symmetry_cfg,
+                         "use_mixed_precision": use_mixed_precision}}
     torch.manual_seed(0)
     return PPO.construct_algorithm(obs, FakeEnv(), cfg, device)
 
@@ -112,6 +114,32 @@ def test_the_sync_free_update_matches_rsl_rls_update_with_symmetry(mirror_loss):
         assert losses[name] == pytest.approx(plain_losses[name], rel=1e-4, abs=1e-6), name
     for name, value in plain_actor.items():
         assert torch.allclose(actor[name], value, rtol=1e-4, atol=1e-6), name
+
+
+def test_the_bf16_update_matches_rsl_rls_bf16_update():
+    """`algorithm.use_mixed_precision` (the runner setting, bf16 autocast of the forward passes) reaches the update,
+    and SyncFreePPO's bf16 update does rsl-rl's: the same losses and weights (to bf16's tolerance) from the same start."""
+    from agile.rl_env.rsl_rl import PpoAlgorithmCfg
+
+    assert "use_mixed_precision" in vars(PpoAlgorithmCfg())
+    plain, sync_free = make_algorithm("PPO", 0.01, use_mixed_precision=True), \
+        make_algorithm(SyncFreePPO, 0.01, use_mixed_precision=True)
+    full = make_algorithm(SyncFreePPO, 0.01)
+    assert plain.use_mixed_precision and sync_free.use_mixed_precision
+    for algorithm in (sync_free, full):
+        algorithm.actor.load_state_dict(plain.actor.state_dict())
+        algorithm.critic.load_state_dict(plain.critic.state_dict())
+    results = []
+    for algorithm in (plain, sync_free, full):
+        fill_rollout(algorithm)
+        torch.manual_seed(3)
+        results.append((algorithm.update(), copy.deepcopy(algorithm.actor.state_dict())))
+    (plain_losses, plain_actor), (losses, actor), (full_losses, _) = results
+    for name in ("value", "surrogate", "entropy"):
+        assert losses[name] == pytest.approx(plain_losses[name], rel=1e-3, abs=1e-5), name
+    for name, value in plain_actor.items():
+        assert torch.allclose(actor[name], value, rtol=1e-3, atol=1e-5), name
+    assert losses["value"] != full_losses["value"]  # bf16 did compute: the FP32 update differs
 
 
 def test_a_checkpoint_of_the_sync_free_update_resumes_in_either():

@@ -53,6 +53,9 @@ class PpoAlgorithmCfg:
     value_loss_coef: float = 1.0
     max_grad_norm: float = 1.0
     use_clipped_value_loss: bool = True
+    use_mixed_precision: bool = False
+    """rsl-rl's bf16 autocast of the update's forward passes (the weights and the optimizer stay FP32): fewer bytes
+    and faster matrix products where the update is arithmetic (docs/benchmarks.md); off as AGILE trains."""
     symmetry_cfg: dict | None = None
     """RSL-RL symmetry extension, e.g. {"use_data_augmentation": True, "use_mirror_loss": False,
     "mirror_loss_coeff": 0.0, "data_augmentation_func": "agile.rl_env.mdp.symmetry:lr_mirror"}."""
