@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import gymnasium as gym
 import pytest
-import torch
 from browser import free_port
 
 import agile.tasks
