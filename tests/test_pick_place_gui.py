@@ -100,3 +100,14 @@ def test_play_opens_the_debug_variant_with_the_shipped_policy_or_else_its_slider
     shipped = agile.tasks.pretrained_policy(DEBUG)
     source = f"policy {shipped}" if shipped is not None else "the GUI's sliders"
     assert f"{DEBUG}: 1 envs on cpu, {source}" in capsys.readouterr().out
+
+
+def test_videos_of_pick_and_place_look_over_the_right_shoulder(gui, tmp_path):
+    from agile.run.recording import DEFAULT_CAMERA_OFFSET_M, VideoRecorder
+
+    env, _, _ = gui
+    video = VideoRecorder(str(tmp_path / "pick_place.mp4"), env, width=64, height=48)
+    video.record(env)
+    video.close()
+    assert video.camera_offset_m == (-0.8, -1.2, 1.3) != DEFAULT_CAMERA_OFFSET_M and video.frames == 1
+

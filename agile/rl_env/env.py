@@ -41,6 +41,10 @@ class ManagerBasedRLEnvCfg:
     curriculum: object = None
     metrics: object = None
     """Episode metrics of the task (`MetricTerm` fields: success, final height, ...) for logs and evaluation."""
+    video_camera_offset_m: tuple[float, float, float] | None = None
+    """Where a rendered video's camera stands from the robot it follows [m], world frame (robots face +x); None: the
+    recorder's default, ahead of the robot and to its right. A task whose robot works behind something (a table)
+    sets its own."""
     capture_step: bool = True
     """On CUDA, record the whole env step (term math, resets and physics) once as a CUDA graph and replay it:
     no Python runs per step. Terms must then avoid host syncs and host-to-device copies."""

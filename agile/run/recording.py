@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+DEFAULT_CAMERA_OFFSET_M = (1.8, -1.8, 0.7)
+"""A video camera from the point it follows [m], world frame: ahead of a robot (robots face +x) and to its right."""
+
 
 class UsdRecorder:
     """One time sample per env step, of the first `max_worlds` worlds (their colliders: visual meshes are
@@ -42,9 +45,8 @@ class CameraVideo:
     """An mp4 of one world of a Newton model, rendered headless by Newton's Warp ray-tracing camera, which
     follows a point (the robot's root)."""
 
-    CAMERA_OFFSET_M = (1.8, -1.8, 0.7)  # from the followed point, world frame
-
-    def __init__(self, path: str, model, fps: int, width: int = 640, height: int = 480, world_index: int = 0):
+    def __init__(self, path: str, model, fps: int, width: int = 640, height: int = 480, world_index: int = 0,
+                 camera_offset_m: tuple[float, float, float] = DEFAULT_CAMERA_OFFSET_M):
         import imageio.v2 as imageio
         import warp as wp
         from newton.sensors import SensorCamera
@@ -60,12 +62,14 @@ class CameraVideo:
         self.writer = imageio.get_writer(path, fps=fps, macro_block_size=1)
         self.path = path
         self.frames = 0
+        self.camera_offset_m = camera_offset_m
+        """Where the camera stands from the followed point [m], world frame."""
 
     def write_frame(self, state, follow_pos_m, distance_scale: float = 1.0) -> None:
         import numpy as np
         import warp as wp
 
-        eye = np.asarray(follow_pos_m, dtype=float) + np.asarray(self.CAMERA_OFFSET_M) * distance_scale
+        eye = np.asarray(follow_pos_m, dtype=float) + np.asarray(self.camera_offset_m) * distance_scale
         target = np.asarray(follow_pos_m, dtype=float) - np.array([0.0, 0.0, 0.2])
         pose = wp.transformf(wp.vec3f(*eye), wp.quatf(*_look_at_quat_xyzw(eye, target)))
         self.transforms.assign(wp.array([pose], dtype=wp.transformf, device=self.transforms.device))
@@ -100,7 +104,9 @@ class VideoRecorder(CameraVideo):
             self.reference = ReferenceScene(env, env_index)
         # the reference scene holds only the recorded env's world, as its world 0
         model, world = (env.sim.model, env_index) if self.reference is None else (self.reference.model, 0)
-        super().__init__(path, model, round(1.0 / step_dt), width, height, world)
+        offset = None if multi_agent else env.cfg.video_camera_offset_m
+        super().__init__(path, model, round(1.0 / step_dt), width, height, world,
+                         tuple(offset) if offset is not None else DEFAULT_CAMERA_OFFSET_M)
         self.env_index = env_index
         self.robots = sorted(env.scene.articulations) if multi_agent else [env.action_manager.policy_entity_name()]
 

@@ -180,6 +180,8 @@ def pick_place_env_cfg() -> ManagerBasedRLEnvCfg:
     """The whole MDP: 200 Hz physics, 50 Hz policy (the frozen lower body's rate), 8 s episodes."""
     return ManagerBasedRLEnvCfg(
         num_envs=4096, decimation=4, episode_length_s=8.0,
+        # videos look over the robot's right shoulder onto the table (from the front the table hides the hand)
+        video_camera_offset_m=(-0.8, -1.2, 1.3),
         scene=pick_place_scene_cfg(), sim=pick_place_sim_cfg(),
         commands=CommandsCfg(), actions=ActionsCfg(), observations=ObservationsCfg(), rewards=RewardsCfg(),
         terminations=TerminationsCfg(), events=EventsCfg(), curriculum=CurriculumCfg())
