@@ -53,10 +53,13 @@ class JointSliders:
         robot = term.robot
         ids = term.joint_ids.tolist()
         limits = robot.joint_pos_limits[0, term.joint_ids].cpu()
+        if isinstance(term, DeltaJointPositionAction):  # its targets are clipped narrower (e.g. AGILE's waist)
+            limits = torch.stack((term.low[0], term.high[0]), dim=-1).cpu()
         self.default_targets = robot.default_joint_pos[0, term.joint_ids].cpu()
         perm, sign = joint_mirror(robot.joint_names, robot.joint_axis[0].cpu().numpy())
         self.partner, self.partner_sign = mirror_within(ids, perm, sign)
-        # slider ranges: the model's limits; a joint without limits turns a half circle either way
+        # slider ranges: the targets the term can reach (the model's limits for a JointPositionAction); a joint
+        # without limits turns a half circle either way
         self.low = [v if math.isfinite(v) else -math.pi for v in limits[:, 0].tolist()]
         self.high = [v if math.isfinite(v) else math.pi for v in limits[:, 1].tolist()]
         self.last_moved: int | None = None
