@@ -35,3 +35,15 @@ def test_evaluating_after_the_training_reports_the_first_checkpoint_that_meets_t
     assert first["iteration"] == 0 and first["met"] and result["evaluated"] == "after the training"
     assert result["time_to_policy_s"] == first["wall_s"] < 40
     assert "Learning iteration 1" in (tmp_path / "after.log").read_text()  # it trained on past the first checkpoint
+
+
+def test_a_run_without_an_evaluated_checkpoint_writes_no_curve(tmp_path):
+    """A budget too short for a first checkpoint: the JSON says so and the curve is skipped (a plot of no metric
+    was a matplotlib error after the whole run)."""
+    from agile.run.time_to_policy import plot
+
+    result = {"task": "Velocity-T1-v0", "evaluations": [], "criteria": {"fall_rate": 0.05}, "first_iteration_s": None,
+              "time_to_policy_s": None, "gpus": 1}
+    assert plot(result, str(tmp_path / "curve.png")) is False
+    assert not (tmp_path / "curve.png").exists()
+

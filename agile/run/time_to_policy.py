@@ -188,13 +188,17 @@ def judge_as_they_come(args, judge: CheckpointJudge, process, start: float, log_
     return None
 
 
-def plot(result: dict, path: str) -> None:
+def plot(result: dict, path: str) -> bool:
+    """The curve of each evaluated metric against wall time into `path`; False (no file) when no checkpoint was
+    evaluated (none written within the budget)."""
+    metrics = [m for m in CURVE_METRICS if any(m in row for row in result["evaluations"])]
+    if not metrics:
+        return False
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    metrics = [m for m in CURVE_METRICS if any(m in row for row in result["evaluations"])]
     fig, axes = plt.subplots(1, len(metrics), figsize=(4.2 * len(metrics), 3.4), squeeze=False)
     for ax, metric in zip(axes[0], metrics):
         rows = [r for r in result["evaluations"] if metric in r]
@@ -211,6 +215,7 @@ def plot(result: dict, path: str) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+    return True
 
 
 def main(argv=None) -> int:
@@ -252,7 +257,9 @@ def main(argv=None) -> int:
     result.update(device=device, commit=source_commit())
     Path(f"{args.out}.json").write_text(json.dumps(result, indent=2))
     try:
-        plot(result, f"{args.out}.png")
+        if not plot(result, f"{args.out}.png"):
+            print(f"[agile] no curve: no checkpoint was written within {args.budget_s:g} s (every "
+                  f"{args.save_interval} iterations; --save_interval for more)")
     except ImportError:
         print("[agile] no plot: matplotlib is missing (pip install 'agile[plot]')")
     met = result["time_to_policy_s"]
