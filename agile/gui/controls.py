@@ -123,8 +123,7 @@ class JointSliders:
     def actions(self) -> torch.Tensor:
         """(num_envs, dim) the term's action that gives the sliders' targets, in every env."""
         env = self.term.env
-        targets = torch.tensor(self.targets(), device=env.device).expand(env.num_envs, -1)
-        return self.term.actions_for_targets(targets)
+        return self.term.actions_for_targets(torch.tensor(self.targets(), device=env.device).expand(env.num_envs, -1))
 
     def update(self) -> None:
         """Show the last moved joint's target and its mirror's, both read from the simulation."""
@@ -143,7 +142,6 @@ class ObjectPoseSliders:
     """Position [m] (env frame) and roll, pitch, yaw [rad] of an object posed by an ObjectPoseAction term."""
 
     def __init__(self, server, name: str, term: ObjectPoseAction):
-        self.env = term.env
         self.default_pos = term.object.default_root_pose[0, :3].cpu()  # the default pose is env-relative
         low, high = term.low.cpu().tolist(), term.high.cpu().tolist()
         self.sliders = []
@@ -160,7 +158,7 @@ class ObjectPoseSliders:
     def actions(self) -> torch.Tensor:
         values = torch.tensor([float(s.value) for s in self.sliders])
         values[:3] -= self.default_pos
-        return values.to(self.env.device).expand(self.env.num_envs, -1)
+        return values
 
     def reset(self) -> None:
         for i, slider in enumerate(self.sliders):
@@ -173,7 +171,6 @@ class CommandSliders:
     the range's bound nearest to it) at the highest base height allowed."""
 
     def __init__(self, server, name: str, term: FrozenPolicyAction):
-        self.env = term.env
         low, high = term.command_low.tolist(), term.command_high.tolist()
         self.standing = [min(max(0.0, lo), hi) for lo, hi in zip(low[:3], high[:3])] + [high[3]]
         with server.gui.add_folder(f"Command: {name} ({term.cfg.asset_name})", order=2.5):
@@ -183,8 +180,7 @@ class CommandSliders:
         stand.on_click(lambda _event: self.reset())
 
     def actions(self) -> torch.Tensor:
-        values = torch.tensor([float(s.value) for s in self.sliders], device=self.env.device)
-        return values.expand(self.env.num_envs, -1)
+        return torch.tensor([float(s.value) for s in self.sliders])
 
     def reset(self) -> None:
         for slider, value in zip(self.sliders, self.standing):
@@ -226,8 +222,10 @@ class ActionSliders:
                 part.reset_requested = False
 
     def actions(self) -> torch.Tensor:
-        """(num_envs, action dim) on the env's device; every env receives the sliders' targets and commands."""
-        return torch.cat([p.actions() for p in self.parts], dim=-1).float()
+        """(num_envs, action dim) on the env's device; every env receives the sliders' targets and commands (a part
+        gives one row, or one per env where its action depends on the env's state)."""
+        n, device = self.env.num_envs, self.env.device
+        return torch.cat([p.actions().to(device).expand(n, -1) for p in self.parts], dim=-1).float()
 
     def update(self) -> None:
         for part in self.joints:

@@ -104,9 +104,8 @@ class VideoRecorder(CameraVideo):
             self.reference = ReferenceScene(env, env_index)
         # the reference scene holds only the recorded env's world, as its world 0
         model, world = (env.sim.model, env_index) if self.reference is None else (self.reference.model, 0)
-        offset = None if multi_agent else env.cfg.video_camera_offset_m
-        super().__init__(path, model, round(1.0 / step_dt), width, height, world,
-                         tuple(offset) if offset is not None else DEFAULT_CAMERA_OFFSET_M)
+        offset = (None if multi_agent else env.cfg.video_camera_offset_m) or DEFAULT_CAMERA_OFFSET_M
+        super().__init__(path, model, round(1.0 / step_dt), width, height, world, tuple(offset))
         self.env_index = env_index
         self.robots = sorted(env.scene.articulations) if multi_agent else [env.action_manager.policy_entity_name()]
 

@@ -17,11 +17,9 @@ from __future__ import annotations
 import dataclasses
 
 from agile.rl_env import ManagerBasedRLEnvCfg
-from agile.tasks.pick_place.g1.pick_place_env_cfg import CommandsCfg, pick_place_env_cfg
+from agile.tasks.pick_place.g1.pick_place_env_cfg import commands_from_first_frame, pick_place_env_cfg
 
 
 def pick_place_debug_env_cfg() -> ManagerBasedRLEnvCfg:
     """PickPlace-G1-v0 with one env whose episodes start at the reference's first frame."""
-    task = pick_place_env_cfg()
-    reference = dataclasses.replace(CommandsCfg().reference, start_step_range=(0, 0))
-    return dataclasses.replace(task, num_envs=1, commands=CommandsCfg(reference=reference))
+    return dataclasses.replace(pick_place_env_cfg(), num_envs=1, commands=commands_from_first_frame())

@@ -12,6 +12,8 @@ The builder `pick_place_env_cfg` makes the task; its debug and recording variant
 
 from __future__ import annotations
 
+import dataclasses
+
 from agile.assets.tabletop import CUBE_START_POS_M, cube_cfg, table_cfg
 from agile.assets.unitree_g1_with_hands import (PALM_BODY, GRASP_POINT_M, UPPER_BODY_JOINTS,
                                                 g1_with_hands_robot_cfg)
@@ -55,6 +57,12 @@ class CommandsCfg:
     # own reset here, so that the frame it draws is the one it then follows
     reference = mdp.TrackingCommandCfg(trajectory_files=list(TRAJECTORIES), start_step_range=(0, 150),
                                        object_name="object", lift_margin_m=LIFT_MARGIN_M, goal_tolerance_m=0.05)
+
+
+def commands_from_first_frame() -> CommandsCfg:
+    """The commands with every episode from the reference's first frame: the debug and recording variants show
+    and record whole pick-and-places."""
+    return CommandsCfg(reference=dataclasses.replace(CommandsCfg().reference, start_step_range=(0, 0)))
 
 
 # -- actions: 17 upper-body joints by delta targets, the frozen lower-body policy by a 4-D command -----------------

@@ -16,8 +16,8 @@ from agile.rl_env import ManagerBasedRLEnvCfg
 from agile.rl_env.managers import ObsGroup, ObsTerm, SceneEntityCfg
 from agile.sim.scene_cfg import CameraCfg
 from agile.tasks.pick_place import mdp
-from agile.tasks.pick_place.g1.pick_place_env_cfg import (UPPER_BODY, CommandsCfg, PolicyObsCfg, pick_place_env_cfg,
-                                                          pick_place_scene_cfg)
+from agile.tasks.pick_place.g1.pick_place_env_cfg import (UPPER_BODY, PolicyObsCfg, commands_from_first_frame,
+                                                          pick_place_env_cfg, pick_place_scene_cfg)
 from agile.utils.config import configclass
 
 FRONT_CAMERA = "front_cam"
@@ -57,8 +57,6 @@ class ObservationsCfg:
 def pick_place_record_env_cfg() -> ManagerBasedRLEnvCfg:
     """PickPlace-G1-v0 with the camera and the `record` group; every episode from the reference's first frame;
     4 envs by default. The step is not graph-captured: the camera renders between steps."""
-    task = pick_place_env_cfg()
-    reference = dataclasses.replace(CommandsCfg().reference, start_step_range=(0, 0))
-    return dataclasses.replace(task, num_envs=4, capture_step=False,
+    return dataclasses.replace(pick_place_env_cfg(), num_envs=4, capture_step=False,
                                scene=pick_place_scene_cfg(cameras={FRONT_CAMERA: FRONT_CAMERA_CFG}),
-                               commands=CommandsCfg(reference=reference), observations=ObservationsCfg())
+                               commands=commands_from_first_frame(), observations=ObservationsCfg())
