@@ -174,10 +174,46 @@ def test_setting_the_learning_rate_reaches_the_optimizer(cls):
         assert algorithm.learning_rate != pytest.approx(1.0e-3)
 
 
+def test_what_the_captured_graph_baked_in_is_in_its_key_and_the_normalisers_go_back_to_its_tensors():
+    """CapturedPPO keeps its graph while `graph_is_current()`: it is not after a change with a Python-number setting of the step,
+    of which parameters learn or of the optimizer's state tensors, and is after one of the learning rate's log mirror;
+    and
+    `rebind_buffers` puts the tensors the graph read back into the normalisers, with the values that replaced them
+    (CPU: the bookkeeping only, no graph)."""
+    algorithm = make_algorithm(CapturedPPO, 0.01)
+    fill_rollout(algorithm)
+    algorithm.update()  # the optimizer's state exists from here on
+    algorithm.graph = "a graph"  # what graph_is_current compares against, as after a capture
+    algorithm.captured_key, algorithm.captured_state = algorithm.graph_key(), algorithm.optimizer_state()
+    assert algorithm.graph_is_current()
+    algorithm.learning_rate = 0.5
+    assert algorithm.graph_is_current()
+    algorithm.entropy_coef = 0.01
+    assert not algorithm.graph_is_current()
+    algorithm.entropy_coef = 0.005
+    next(algorithm.actor.parameters()).requires_grad_(False)
+    assert not algorithm.graph_is_current()
+    next(algorithm.actor.parameters()).requires_grad_(True)
+    assert algorithm.graph_is_current()
+    algorithm.optimizer.load_state_dict(copy.deepcopy(algorithm.optimizer.state_dict()))  # a resume: new tensors
+    assert not algorithm.graph_is_current()
+    algorithm.graph = None
+
+    algorithm.captured_buffers = algorithm.model_buffers()
+    normaliser = algorithm.actor.obs_normalizer
+    std_read_by_graph = normaliser._std
+    fill_rollout(algorithm, seed=5)
+    algorithm.update()  # the normalisers learn the rollout: a new std tensor
+    assert normaliser._std is not std_read_by_graph
+    learned_std = normaliser._std.clone()
+    algorithm.rebind_buffers()
+    assert normaliser._std is std_read_by_graph and torch.equal(normaliser._std, learned_std)
+
+
 @pytest.mark.gpu
 def test_the_captured_update_matches_the_eager_update_on_the_gpu():
-    """Four updates (the first eager, then captured afresh each time) against SyncFreePPO's eager updates: the
-    normalisers learn between updates and the entropy coefficient changes, which each new capture must see."""
+    """Four updates (the first eager, then captured again each time: the entropy coefficient changes, a setting the
+    graph bakes in) against SyncFreePPO's eager updates; the normalisers learn between updates."""
     eager, captured = make_algorithm(SyncFreePPO, 0.01, "cuda"), make_algorithm(CapturedPPO, 0.01, "cuda")
     assert captured.captures
     captured.actor.load_state_dict(eager.actor.state_dict())
@@ -196,4 +232,26 @@ def test_the_captured_update_matches_the_eager_update_on_the_gpu():
             assert losses[name] == pytest.approx(eager_losses[name], rel=1e-3, abs=1e-5), (update, name)
         for name, value in eager_actor.items():
             assert torch.allclose(actor[name], value, rtol=1e-3, atol=1e-5), (update, name)
-    assert captured.graph is not None and captured.updates_done == 4
+    assert captured.graph is not None and captured.updates_done == 4 and captured.captures_made == 3
+
+
+@pytest.mark.gpu
+def test_the_captured_graph_is_kept_across_updates_and_memory_stays_flat_on_the_gpu():
+    """Settings unchanged: one capture for eight updates that still match the eager updates (the normalisers learn
+    a new std every rollout, which the kept graph must read), and the memory in use does not grow from update to
+    update (captured afresh each time, a training kept ~0.85 GB of every update's graph and ran out of memory)."""
+    eager, captured = make_algorithm(SyncFreePPO, 0.01, "cuda"), make_algorithm(CapturedPPO, 0.01, "cuda")
+    captured.actor.load_state_dict(eager.actor.state_dict())
+    captured.critic.load_state_dict(eager.critic.state_dict())
+    allocated = []
+    for update in range(8):
+        for algorithm in (eager, captured):
+            fill_rollout(algorithm, seed=10 * update)
+            torch.manual_seed(100 + update)
+            algorithm.update()
+        torch.cuda.synchronize()
+        allocated.append(torch.cuda.memory_allocated())
+        for name, value in eager.actor.state_dict().items():
+            assert torch.allclose(captured.actor.state_dict()[name], value, rtol=1e-3, atol=1e-5), (update, name)
+    assert captured.captures_made == 1
+    assert max(allocated[2:]) == min(allocated[2:]), allocated

@@ -54,8 +54,11 @@ class SyncFreePPO(PPO):
                 batch.advantages = (batch.advantages - batch.advantages.mean()) / (batch.advantages.std() + 1e-8)
         if self.symmetry:
             self.symmetry.augment_batch(batch, original_batch_size)
+        capturing = torch.device(self.device).type == "cuda" and torch.cuda.is_current_stream_capturing()
+        # no cast cache while a CUDA graph captures the step (PyTorch's rule for autocast in a capture: a cached cast
+        # would outlive the capture in the graph's memory)
         with torch.amp.autocast(device_type=torch.device(self.device).type, enabled=self.use_mixed_precision,
-                                dtype=torch.bfloat16):
+                                dtype=torch.bfloat16, cache_enabled=not capturing):
             # the action distribution at the batch; rsl-rl's actor(..., stochastic_output=True) also draws a sample
             # that the update does not use (and a random draw would not replay in CapturedPPO's graph)
             self.actor.distribution.update(self.actor.mlp(self.actor.get_latent(batch.observations)))
