@@ -189,7 +189,7 @@ def test_eval_breaks_outcomes_down_by_the_kind_of_episode_each_started_with():
             return ["a", "b"], self.ids
 
     term = Term()
-    outcomes = OutcomesByVariant(term, ["m"])
+    outcomes = OutcomesByVariant(term.episode_variants, ["m"])
     # env 1 (kind b) falls with m = 2; its reset draws kind a
     done = torch.tensor([False, True, False])
     term.ids = torch.tensor([0, 0, 1])

@@ -128,6 +128,11 @@ def test_eval_reports_the_height_error_by_commanded_height(env_and_agent):
         env.max_episode_length = full_length
     rows = metrics["error_by_command"]["height_error_m_by_height_m"]
     assert rows and all(row["error"] >= 0.0 and row["steps"] > 0 for row in rows)
+    # by the terrain cell each episode spawned on: every ended episode counted once, under its row and sub-terrain
+    cells = metrics["episodes_by_variant"]["terrain_cell"]
+    assert sum(row["episodes"] for row in cells) == metrics["episodes"]
+    type_names = env.sim.terrain.type_names
+    assert all(row["variant"].split(" ", 2)[2] in type_names and row["variant"].startswith("row ") for row in cells)
     assert {tuple(row["command"]) for row in rows} <= {(0.0, 0.2), (0.2, 0.4), (0.4, 0.6), (0.6, 0.8), (0.8, 0.9),
                                                          (0.9, None)}
     # the same steps as the episode metric: their mean over the steps is the metric's mean over the episodes' steps

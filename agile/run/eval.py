@@ -14,7 +14,8 @@ the terrain) for those with a base-height command; every task reports its episod
 episodes under "episode_metrics": its command terms' (`CommandTerm.metrics`, "<term>/<name>": the motion-tracking
 errors, pick-and-place success) and its metric terms' (the env cfg's `metrics`, "<name>": the stand-up success);
 a command that draws kinds of episode (pick-and-place: which trajectory) gets episodes, falls and those metrics per
-kind under "episodes_by_variant"; a command that measures its own error (`CommandTerm.command_error`: the
+kind under "episodes_by_variant" (by its name), and a task on a terrain grid the same by the cell each episode
+spawned on ("terrain_cell": "row <r> <sub-terrain>"); a command that measures its own error (`CommandTerm.command_error`: the
 height-tracking command's) gets it by commanded value under "error_by_command" ("height_error_m_by_height_m").
 JSON files written before these were merged have the command terms' under "command_metrics".
 """
@@ -28,7 +29,8 @@ from agile.run import common as cli
 
 from agile.run import multi_agent
 from agile.run.common import load_policy
-from agile.run.eval_breakdowns import HEIGHT_BIN_EDGES_M, SPEED_BIN_EDGES_MPS, ErrorByCommand, OutcomesByVariant
+from agile.run.eval_breakdowns import (HEIGHT_BIN_EDGES_M, SPEED_BIN_EDGES_MPS, ErrorByCommand, OutcomesByVariant,
+                                      spawn_cell_variants)
 from agile.run.policy import inference_cfg
 
 
@@ -89,8 +91,11 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
             command_errors[f"{sample.error_name}_by_{sample.command_name}"] = (
                 term, ErrorByCommand(sample.bin_edges, env.device))
     commands = env.command_manager.terms
-    by_variant = {name: OutcomesByVariant(term, last_metrics) for name, term in commands.items()
+    by_variant = {name: OutcomesByVariant(term.episode_variants, last_metrics) for name, term in commands.items()
                   if term.episode_variants() is not None}
+    spawn_cells = spawn_cell_variants(env.sim)
+    if spawn_cells is not None:
+        by_variant["terrain_cell"] = OutcomesByVariant(spawn_cells, last_metrics)
     with torch.inference_mode():
         for step in range(num_episodes * env.max_episode_length):
             if command_name is not None:

@@ -1,6 +1,6 @@
 """What an evaluation tallies on the device as it runs, for its breakdowns: a tracking error by the commanded value
-(velocity by commanded speed, height by commanded height) and the outcomes by the kind of episode a command draws
-(pick-and-place by trajectory)."""
+(velocity by commanded speed, height by commanded height) and the outcomes by the kind of episode each env started
+(pick-and-place by trajectory; on a terrain grid by the cell it spawned on)."""
 
 from __future__ import annotations
 
@@ -37,14 +37,15 @@ class ErrorByCommand:
 
 
 class OutcomesByVariant:
-    """Episodes, falls and the episode metrics summed per kind of episode a command term draws (its
-    `episode_variants`, e.g. the trajectory), by the kind each episode started with: which kinds fail."""
+    """Episodes, falls and the episode metrics summed per kind of episode, by the kind each episode started with:
+    which kinds fail. `variants()` gives the kinds' names and each env's current kind ((N,) long indices): a
+    command term's `episode_variants` (the trajectory it draws), or `spawn_cell_variants`."""
 
-    def __init__(self, term, metric_keys):
+    def __init__(self, variants, metric_keys):
         import torch
 
-        self.term = term
-        self.names, ids = term.episode_variants()
+        self.variants = variants
+        self.names, ids = variants()
         self.start = ids.clone()  # each env's episode's kind, as drawn at its start
         zeros = lambda: torch.zeros(len(self.names), device=ids.device)  # noqa: E731
         self.episodes, self.falls = zeros(), zeros()
@@ -58,7 +59,7 @@ class OutcomesByVariant:
         self.falls.index_add_(0, self.start, terminated.float())
         for key, value in last_metrics.items():
             self.metrics[key].index_add_(0, self.start, value * done)
-        self.start.copy_(torch.where(done, self.term.episode_variants()[1], self.start))
+        self.start.copy_(torch.where(done, self.variants()[1], self.start))
 
     def rows(self) -> list[dict]:
         """[{"variant", "episodes", "falls", "fall_rate", "episode_metrics"}] for the kinds that ended an episode."""
@@ -68,3 +69,21 @@ class OutcomesByVariant:
                  "fall_rate": falls[i] / episodes[i],
                  "episode_metrics": {key: values[i] / episodes[i] for key, values in metrics.items()}}
                 for i, name in enumerate(self.names) if episodes[i] > 0]
+
+
+def spawn_cell_variants(sim):
+    """The cells of a terrain grid as kinds of episode: "row <r> <sub-terrain>" (columns of one sub-terrain type
+    together), each env's from the row and column it spawns on. None for a world without a terrain grid."""
+    import torch
+
+    terrain = sim.terrain
+    if terrain is None:
+        return None
+    cell_types = torch.as_tensor(terrain.cell_types, dtype=torch.long, device=sim.terrain_levels.device)
+    num_types = len(terrain.type_names)
+    names = [f"row {row} {name}" for row in range(cell_types.shape[0]) for name in terrain.type_names]
+
+    def variants():
+        return names, sim.terrain_levels * num_types + cell_types[sim.terrain_levels, sim.terrain_types]
+
+    return variants
