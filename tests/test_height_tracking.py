@@ -133,6 +133,11 @@ def test_eval_reports_the_height_error_by_commanded_height(env_and_agent):
     assert sum(row["episodes"] for row in cells) == metrics["episodes"]
     type_names = env.sim.terrain.type_names
     assert all(row["variant"].split(" ", 2)[2] in type_names and row["variant"].startswith("row ") for row in cells)
+    # and by when in the episode they ended (3 s episodes here: every time-out in the last second)
+    by_time = metrics["falls_by_episode_time_s"]
+    assert sum(row["ended"] for row in by_time) == metrics["episodes"]
+    assert sum(row["falls"] for row in by_time) == metrics["falls"]
+    assert all(0.0 <= row["time_s"][0] < row["time_s"][1] <= 3.0 + 1e-6 for row in by_time)
     assert {tuple(row["command"]) for row in rows} <= {(0.0, 0.2), (0.2, 0.4), (0.4, 0.6), (0.6, 0.8), (0.8, 0.9),
                                                          (0.9, None)}
     # the same steps as the episode metric: their mean over the steps is the metric's mean over the episodes' steps

@@ -15,7 +15,8 @@ episodes under "episode_metrics": its command terms' (`CommandTerm.metrics`, "<t
 errors, pick-and-place success) and its metric terms' (the env cfg's `metrics`, "<name>": the stand-up success);
 a command that draws kinds of episode (pick-and-place: which trajectory) gets episodes, falls and those metrics per
 kind under "episodes_by_variant" (by its name), and a task on a terrain grid the same by the cell each episode
-spawned on ("terrain_cell": "row <r> <sub-terrain>"); a command that measures its own error (`CommandTerm.command_error`: the
+spawned on ("terrain_cell": "row <r> <sub-terrain>"); "falls_by_episode_time_s" counts the ended episodes and the
+falls per second of episode time at which they ended; a command that measures its own error (`CommandTerm.command_error`: the
 height-tracking command's) gets it by commanded value under "error_by_command" ("height_error_m_by_height_m").
 JSON files written before these were merged have the command terms' under "command_metrics".
 """
@@ -29,9 +30,12 @@ from agile.run import common as cli
 
 from agile.run import multi_agent
 from agile.run.common import load_policy
-from agile.run.eval_breakdowns import (HEIGHT_BIN_EDGES_M, SPEED_BIN_EDGES_MPS, ErrorByCommand, OutcomesByVariant,
-                                      spawn_cell_variants)
+from agile.run.eval_breakdowns import (HEIGHT_BIN_EDGES_M, SPEED_BIN_EDGES_MPS, ErrorByCommand, FallsByTime,
+                                      OutcomesByVariant, spawn_cell_variants)
 from agile.run.policy import inference_cfg
+
+FALL_TIME_BIN_S = 1.0
+"""Width of the bins of `falls_by_episode_time_s`, when in their episodes episodes ended and fell."""
 
 
 def velocity_command_name(env, command_name: str | None = None) -> str | None:
@@ -79,6 +83,7 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
     last_metrics = env.last_episode_metrics  # commands' and metric terms', written in place for the ended envs
     sums.update({f"episode_metric/{key}": zeros() for key in last_metrics})
     episode_steps = zeros()
+    falls_by_time = FallsByTime(env.max_episode_length * env.step_dt, FALL_TIME_BIN_S, env.device)
     term_sums = {name: torch.zeros((), device=env.device) for name in env.reward_manager.weights}
     robot = env.scene[env.action_manager.policy_entity_name()]  # the robot the policy drives
     by_speed = ErrorByCommand(SPEED_BIN_EDGES_MPS, env.device)
@@ -122,6 +127,7 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
                 term_sums[name] += env.reward_manager.step_reward[name].sum()
             episode_steps += 1
             sums["ended_length_steps"] += episode_steps * done
+            falls_by_time.add(episode_steps * env.step_dt, done, terminated)
             episode_steps.masked_fill_(done, 0.0)
             sums["episodes"] += done.float()
             sums["falls"] += terminated.float()
@@ -137,7 +143,8 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
     by_command.update({key: by_value.rows() for key, (_, by_value) in command_errors.items()})
     return {"sums": sums, "reward_totals": term_sums, "steps": num_episodes * env.max_episode_length,
             "error_by_command": by_command,
-            "episodes_by_variant": {name: outcomes.rows() for name, outcomes in by_variant.items()}}
+            "episodes_by_variant": {name: outcomes.rows() for name, outcomes in by_variant.items()},
+            "falls_by_episode_time_s": falls_by_time.rows()}
 
 
 def summarise(sums: dict, step_dt: float, mask=None) -> dict:
@@ -169,6 +176,7 @@ def evaluate(env, policy, num_episodes: int, command_name: str | None = None, re
     metrics["error_by_command"] = result["error_by_command"]
     if result["episodes_by_variant"]:
         metrics["episodes_by_variant"] = result["episodes_by_variant"]
+    metrics["falls_by_episode_time_s"] = result["falls_by_episode_time_s"]
     return metrics
 
 

@@ -1,6 +1,7 @@
 """What an evaluation tallies on the device as it runs, for its breakdowns: a tracking error by the commanded value
 (velocity by commanded speed, height by commanded height) and the outcomes by the kind of episode each env started
-(pick-and-place by trajectory; on a terrain grid by the cell it spawned on)."""
+(pick-and-place by trajectory; on a terrain grid by the cell it spawned on), and when in their episodes the falls
+happen."""
 
 from __future__ import annotations
 
@@ -34,6 +35,32 @@ class ErrorByCommand:
         bounds = [0.0, *self.edges, None]
         return [{"command": [bounds[i], bounds[i + 1]], "error": float(e / n), "steps": int(n)}
                 for i, (e, n) in enumerate(zip(self.error_sum.tolist(), self.steps.tolist())) if n > 0]
+
+
+class FallsByTime:
+    """Ended episodes and falls by the time into the episode at which they ended, in bins of `bin_s` seconds:
+    whether falls cluster at one moment (every env starts together, so a moment of the episode is a moment of the
+    run: something that happens to all envs at once) or spread over the episode."""
+
+    def __init__(self, episode_length_s: float, bin_s: float, device):
+        import math
+
+        import torch
+
+        self.bin_s = bin_s
+        self.num_bins = max(1, math.ceil(episode_length_s / bin_s - 1e-9))
+        self.ended = torch.zeros(self.num_bins, device=device)
+        self.falls = torch.zeros(self.num_bins, device=device)
+
+    def add(self, episode_time_s, done, terminated) -> None:
+        bins = (episode_time_s / self.bin_s).long().clamp(0, self.num_bins - 1)
+        self.ended.index_add_(0, bins, done.float())
+        self.falls.index_add_(0, bins, terminated.float())
+
+    def rows(self) -> list[dict]:
+        """[{"time_s": [low, high], "ended": n, "falls": n}] for the bins in which an episode ended."""
+        return [{"time_s": [i * self.bin_s, (i + 1) * self.bin_s], "ended": int(e), "falls": int(f)}
+                for i, (e, f) in enumerate(zip(self.ended.tolist(), self.falls.tolist())) if e > 0]
 
 
 class OutcomesByVariant:
