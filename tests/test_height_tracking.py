@@ -132,7 +132,8 @@ def test_eval_reports_the_height_error_by_commanded_height(env_and_agent):
     cells = metrics["episodes_by_variant"]["terrain_cell"]
     assert sum(row["episodes"] for row in cells) == metrics["episodes"]
     type_names = env.sim.terrain.type_names
-    assert all(row["variant"].split(" ", 2)[2] in type_names and row["variant"].startswith("row ") for row in cells)
+    assert all(row["variant"].startswith("row ") and " col " in row["variant"]
+               and row["variant"].split(" ", 4)[4] in type_names for row in cells)
     # and by when in the episode they ended (3 s episodes here: every time-out in the last second)
     by_time = metrics["falls_by_episode_time_s"]
     assert sum(row["ended"] for row in by_time) == metrics["episodes"]

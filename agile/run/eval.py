@@ -15,9 +15,10 @@ episodes under "episode_metrics": its command terms' (`CommandTerm.metrics`, "<t
 errors, pick-and-place success) and its metric terms' (the env cfg's `metrics`, "<name>": the stand-up success);
 a command that draws kinds of episode (pick-and-place: which trajectory) gets episodes, falls and those metrics per
 kind under "episodes_by_variant" (by its name), and a task on a terrain grid the same by the cell each episode
-spawned on ("terrain_cell": "row <r> <sub-terrain>"); "falls_by_episode_time_s" counts the ended episodes and the
-falls per second of episode time at which they ended; a command that measures its own error (`CommandTerm.command_error`: the
-height-tracking command's) gets it by commanded value under "error_by_command" ("height_error_m_by_height_m").
+spawned on ("terrain_cell": "row <r> col <c> <sub-terrain>"); "falls_by_episode_time_s" counts the ended episodes
+and the falls per second of episode time at which they ended; a command that measures its own error
+(`CommandTerm.command_error`: the height-tracking command's) gets it by commanded value under "error_by_command"
+("height_error_m_by_height_m").
 JSON files written before these were merged have the command terms' under "command_metrics".
 """
 

@@ -99,18 +99,17 @@ class OutcomesByVariant:
 
 
 def spawn_cell_variants(sim):
-    """The cells of a terrain grid as kinds of episode: "row <r> <sub-terrain>" (columns of one sub-terrain type
-    together), each env's from the row and column it spawns on. None for a world without a terrain grid."""
-    import torch
-
+    """The cells of a terrain grid as kinds of episode, "row <r> col <c> <sub-terrain>", each env's from the row and
+    column it spawns on (cells of one row and type differ: their difficulty is drawn within the row's band). None
+    for a world without a terrain grid."""
     terrain = sim.terrain
     if terrain is None:
         return None
-    cell_types = torch.as_tensor(terrain.cell_types, dtype=torch.long, device=sim.terrain_levels.device)
-    num_types = len(terrain.type_names)
-    names = [f"row {row} {name}" for row in range(cell_types.shape[0]) for name in terrain.type_names]
+    num_rows, num_cols = terrain.cell_types.shape
+    names = [f"row {row} col {col} {terrain.type_names[int(terrain.cell_types[row, col])]}"
+             for row in range(num_rows) for col in range(num_cols)]
 
     def variants():
-        return names, sim.terrain_levels * num_types + cell_types[sim.terrain_levels, sim.terrain_types]
+        return names, sim.terrain_levels * num_cols + sim.terrain_types
 
     return variants
