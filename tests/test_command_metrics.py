@@ -269,3 +269,19 @@ def test_eval_reports_pick_place_success(pick_place_env, tmp_path):
     assert {row["variant"] for row in rows} <= {"pick_place_left", "pick_place_near_left", "pick_place_right"}
     assert sum(row["episodes"] for row in rows) == metrics["episodes"]
     assert set(rows[0]["episode_metrics"]) == set(found)
+
+
+def test_eval_counts_falls_by_robot():
+    """An env's robot keeps its startup randomisation for the whole evaluation: one that cannot walk falls after
+    every reset, so falls are also counted by robot (env), overall and within a sweep's mask."""
+    from agile.run.eval import summarise
+
+    n = 4
+    sums = {"episodes": torch.tensor([1.0, 4.0, 2.0, 1.0]), "falls": torch.tensor([0.0, 3.0, 1.0, 0.0]),
+            "steps_alive": torch.full((n,), 100.0), "ended_length_steps": torch.full((n,), 100.0)}
+    metrics = summarise(sums, 0.02)
+    assert (metrics["falls"], metrics["robots_fallen"], metrics["max_falls_of_one_robot"]) == (4, 2, 3)
+    assert metrics["robot_fall_rate"] == pytest.approx(0.5) and metrics["fall_rate"] == pytest.approx(0.5)
+    masked = summarise(sums, 0.02, mask=torch.tensor([True, False, True, True]))
+    assert (masked["robots_fallen"], masked["max_falls_of_one_robot"]) == (1, 1)
+    assert masked["robot_fall_rate"] == pytest.approx(1 / 3)

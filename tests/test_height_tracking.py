@@ -139,6 +139,10 @@ def test_eval_reports_the_height_error_by_commanded_height(env_and_agent):
     assert sum(row["ended"] for row in by_time) == metrics["episodes"]
     assert sum(row["falls"] for row in by_time) == metrics["falls"]
     assert all(0.0 <= row["time_s"][0] < row["time_s"][1] <= 3.0 + 1e-6 for row in by_time)
+    # and by robot: no more robots fell than falls, each counted once
+    assert metrics["robots_fallen"] <= min(metrics["falls"], env.num_envs)
+    assert metrics["robot_fall_rate"] == pytest.approx(metrics["robots_fallen"] / env.num_envs)
+    assert (metrics["max_falls_of_one_robot"] > 0) == (metrics["falls"] > 0)
     assert {tuple(row["command"]) for row in rows} <= {(0.0, 0.2), (0.2, 0.4), (0.4, 0.6), (0.6, 0.8), (0.8, 0.9),
                                                          (0.9, None)}
     # the same steps as the episode metric: their mean over the steps is the metric's mean over the episodes' steps

@@ -16,7 +16,8 @@ errors, pick-and-place success) and its metric terms' (the env cfg's `metrics`, 
 a command that draws kinds of episode (pick-and-place: which trajectory) gets episodes, falls and those metrics per
 kind under "episodes_by_variant" (by its name), and a task on a terrain grid the same by the cell each episode
 spawned on ("terrain_cell": "row <r> col <c> <sub-terrain>"); "falls_by_episode_time_s" counts the ended episodes
-and the falls per second of episode time at which they ended; a command that measures its own error
+and the falls per second of episode time at which they ended; "robots_fallen", "robot_fall_rate" and
+"max_falls_of_one_robot" count falls by env (its robot's randomisation is drawn once per run); a command that measures its own error
 (`CommandTerm.command_error`: the height-tracking command's) gets it by commanded value under "error_by_command"
 ("height_error_m_by_height_m").
 JSON files written before these were merged have the command terms' under "command_metrics".
@@ -153,8 +154,14 @@ def summarise(sums: dict, step_dt: float, mask=None) -> dict:
     total = {key: float(value.sum() if mask is None else value[mask].sum()) for key, value in sums.items()}
     episodes = max(total["episodes"], 1.0)
     steps_alive = max(total["steps_alive"], 1.0)
+    falls_per_env = sums["falls"] if mask is None else sums["falls"][mask]
     metrics = {"episodes": int(total["episodes"]), "falls": int(total["falls"]),
                "fall_rate": total["falls"] / episodes,
+               # each env's robot keeps its startup randomisation (masses, gains, ...) for the whole evaluation, and
+               # one that cannot walk falls again after every reset: how many robots fell, and the most falls of one
+               "robots_fallen": int((falls_per_env > 0).sum()),
+               "robot_fall_rate": float((falls_per_env > 0).float().mean()) if falls_per_env.numel() else 0.0,
+               "max_falls_of_one_robot": int(falls_per_env.max()) if falls_per_env.numel() else 0,
                "mean_episode_length_s": total["ended_length_steps"] * step_dt / episodes}
     for key in ("lin_vel_error_mps", "ang_vel_error_radps", "base_height_error_m"):  # what the task commands
         if key in total:
