@@ -285,3 +285,20 @@ def test_eval_counts_falls_by_robot():
     masked = summarise(sums, 0.02, mask=torch.tensor([True, False, True, True]))
     assert (masked["robots_fallen"], masked["max_falls_of_one_robot"]) == (1, 1)
     assert masked["robot_fall_rate"] == pytest.approx(1 / 3)
+
+
+def test_eval_counts_each_envs_first_episodes_only():
+    """An env that falls starts another episode inside the evaluation's window; only its first `num_episodes` count
+    (counting the rest would count their falls but not the time-outs the window cuts off). A T1 driven by large
+    random actions falls within a second, several times in a 2 s window: still one episode per env."""
+    from agile.run.eval import evaluate
+
+    env = gym.make("Velocity-T1-v0", num_envs=2, device="cpu",
+                   overrides=["episode_length_s=2.0", "scene.terrain=null", "curriculum.terrain_levels=null"]).unwrapped
+    num_actions = env.action_manager.total_action_dim
+    torch.manual_seed(0)
+    metrics = evaluate(env, lambda obs: 20.0 * torch.randn(env.num_envs, num_actions), num_episodes=1)
+    assert metrics["episodes"] == env.num_envs  # not the falls after the first ones
+    assert metrics["falls"] == metrics["robots_fallen"] and metrics["falls"] >= 1
+    assert metrics["max_falls_of_one_robot"] == 1
+    env.close()

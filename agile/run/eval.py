@@ -6,7 +6,8 @@
     agile eval --task Velocity-Height-G1-v0 --num_envs 1024 --sweep_lin_vel_x -0.5 0 0.5 \
         --sweep_base_height 0.4 0.56 0.72 --out sweep.json                      # a table and sweep.png
 
-Each env runs `num_episodes` episodes of `episode_length_s` (pushes off unless --pushes). Commands are
+Each env runs `num_episodes` episodes of `episode_length_s` (pushes off unless --pushes); an env whose episode ends
+early starts another within the window, which is not counted: every env contributes exactly `num_episodes`. Commands are
 drawn by the task's command term (uniform over its ranges, a share standing), or fixed with --command.
 Without --checkpoint the policy shipped with agile for the task is evaluated. Prints and writes JSON.
 Velocity errors are measured for tasks with a velocity command, the height error (commanded minus measured above
@@ -105,13 +106,16 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
         by_variant["terrain_cell"] = OutcomesByVariant(spawn_cells, last_metrics)
     with torch.inference_mode():
         for step in range(num_episodes * env.max_episode_length):
+            # each env's first `num_episodes` episodes only: one that falls starts another inside the window, and
+            # counting those would count their falls but not the time-outs the window cuts off (over-counting falls)
+            counted = sums["episodes"] < num_episodes
             if command_name is not None:
                 command = env.command_manager.get_command(command_name).clone()
             obs, reward, terminated, truncated, _ = env.step(policy(obs))
             for recorder in recorders:
                 recorder.record(env, step * env.step_dt)
-            done = terminated | truncated
-            alive = (~done).float()  # the state of a reset env is its new episode's first state
+            done, terminated = (terminated | truncated) & counted, terminated & counted
+            alive = (~done & counted).float()  # the state of a reset env is its new episode's first state
             if command_name is not None:
                 lin_vel_error = torch.linalg.norm(command[:, :2] - robot.root_lin_vel_b[:, :2], dim=1)
                 sums["lin_vel_error_mps"] += lin_vel_error * alive
@@ -130,11 +134,11 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
             episode_steps += 1
             sums["ended_length_steps"] += episode_steps * done
             falls_by_time.add(episode_steps * env.step_dt, done, terminated)
-            episode_steps.masked_fill_(done, 0.0)
+            episode_steps.masked_fill_(done | ~counted, 0.0)
             sums["episodes"] += done.float()
             sums["falls"] += terminated.float()
             for name in failure_terms:  # which failure ended the episode (several can at once)
-                sums[f"ended_by/{name}"] += terminations.term_dones[name].float()
+                sums[f"ended_by/{name}"] += (terminations.term_dones[name] & counted).float()
             for key, value in last_metrics.items():
                 sums[f"episode_metric/{key}"] += value * done
             for outcomes in by_variant.values():
