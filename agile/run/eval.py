@@ -7,8 +7,8 @@
         --sweep_base_height 0.4 0.56 0.72 --out sweep.json                      # a table and sweep.png
 
 Each env runs `num_episodes` episodes of `episode_length_s` (pushes off unless --pushes); an env whose episode ends
-early starts another within the window, which is not counted: every env contributes exactly `num_episodes`. Commands are
-drawn by the task's command term (uniform over its ranges, a share standing), or fixed with --command.
+early starts another within the window, which is not counted: every env contributes exactly `num_episodes`.
+Commands are drawn by the task's command term (uniform over its ranges, a share standing), or fixed with --command.
 Without --checkpoint the policy shipped with agile for the task is evaluated. Prints and writes JSON.
 Velocity errors are measured for tasks with a velocity command, the height error (commanded minus measured above
 the terrain) for those with a base-height command; every task reports its episode metrics as means over the ended
@@ -18,9 +18,9 @@ a command that draws kinds of episode (pick-and-place: which trajectory) gets ep
 kind under "episodes_by_variant" (by its name), and a task on a terrain grid the same by the cell each episode
 spawned on ("terrain_cell": "row <r> col <c> <sub-terrain>"); "falls_by_episode_time_s" counts the ended episodes
 and the falls per second of episode time at which they ended; "robots_fallen", "robot_fall_rate" and
-"max_falls_of_one_robot" count falls by env (its robot's randomisation is drawn once per run); a command that measures its own error
-(`CommandTerm.command_error`: the height-tracking command's) gets it by commanded value under "error_by_command"
-("height_error_m_by_height_m").
+"max_falls_of_one_robot" count falls by env (its robot's randomisation is drawn once per run); a command that
+measures its own error (`CommandTerm.command_error`: the height-tracking command's) gets it by commanded value under
+"error_by_command" ("height_error_m_by_height_m").
 JSON files written before these were merged have the command terms' under "command_metrics".
 """
 
@@ -162,7 +162,7 @@ def summarise(sums: dict, step_dt: float, mask=None) -> dict:
     metrics = {"episodes": int(total["episodes"]), "falls": int(total["falls"]),
                "fall_rate": total["falls"] / episodes,
                # each env's robot keeps its startup randomisation (masses, gains, ...) for the whole evaluation, and
-               # one that cannot walk falls again after every reset: how many robots fell, and the most falls of one
+               # one that cannot walk falls in every episode it is given: how many robots fell, the most falls of one
                "robots_fallen": int((falls_per_env > 0).sum()),
                "robot_fall_rate": float((falls_per_env > 0).float().mean()) if falls_per_env.numel() else 0.0,
                "max_falls_of_one_robot": int(falls_per_env.max()) if falls_per_env.numel() else 0,

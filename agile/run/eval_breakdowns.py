@@ -5,6 +5,8 @@ happen."""
 
 from __future__ import annotations
 
+import math
+
 SPEED_BIN_EDGES_MPS = (0.05, 0.25, 0.5, 0.75, 1.0)
 """Bins of the commanded planar speed |(vx, vy)| for the velocity error by command: [0, 0.05) is standing still."""
 HEIGHT_BIN_EDGES_M = (0.45, 0.5, 0.55, 0.6, 0.65, 0.7)
@@ -43,8 +45,6 @@ class FallsByTime:
     run: something that happens to all envs at once) or spread over the episode."""
 
     def __init__(self, episode_length_s: float, bin_s: float, device):
-        import math
-
         import torch
 
         self.bin_s = bin_s

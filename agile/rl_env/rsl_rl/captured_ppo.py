@@ -53,9 +53,11 @@ class CapturedPPO(SyncFreePPO):
         self.mini_batch = None
         """The fixed buffers the captured step reads (a RolloutStorage.Batch), made at the first captured update."""
         self.graph = None
-        """The captured mini-batch step, replayed by every update while `graph_key()` is unchanged."""
+        """The captured mini-batch step, replayed by every update while `graph_is_current()`."""
         self.captured_key = None
+        """`graph_key()` at the capture."""
         self.captured_state: list[torch.Tensor] = []
+        """The optimizer's state tensors at the capture (held: no new tensor can take their place)."""
         self.captured_buffers: list[tuple[torch.nn.Module, str, torch.Tensor]] = []
         """(module, buffer name, the tensor the graph reads) of every buffer of actor and critic at capture."""
         self.captures_made = 0
@@ -112,8 +114,7 @@ class CapturedPPO(SyncFreePPO):
 
     def _replay_captured_steps(self) -> None:
         """Replay the captured mini-batch step for every mini-batch, capturing it first where there is no graph or
-        what it baked in changed
-        (`graph_is_current`; capture records, it does not run)."""
+        what it baked in changed (`graph_is_current`; capture records, it does not run)."""
         if self.graph is not None and not self.graph_is_current():
             self.graph = None  # its memory is released once nothing made in it is held any more
             self.optimizer.zero_grad(set_to_none=True)  # the gradients lived in that memory

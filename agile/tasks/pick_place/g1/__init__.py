@@ -11,7 +11,8 @@ EVAL = dict(eval_criteria={"reference/joint_pos_error_rad": 0.1},
             eval_settings={"num_envs": 256, "episode_length_s": 8.0})
 for task_id in ("PickPlace-G1-v0", "G1-PickPlace-Tracking-v0"):
     register_task(task_id, f"{__name__}.pick_place_env_cfg:pick_place_env_cfg",
-                  f"{__name__}.agents.rsl_rl_cfg:g1_pick_place_ppo_runner_cfg", shipped_policy="PickPlace-G1-v0", **EVAL)
+                  f"{__name__}.agents.rsl_rl_cfg:g1_pick_place_ppo_runner_cfg", shipped_policy="PickPlace-G1-v0",
+                  **EVAL)
 register_task("PickPlace-G1-Debug-v0", f"{__name__}.pick_place_debug_env_cfg:pick_place_debug_env_cfg",
               f"{__name__}.agents.rsl_rl_cfg:g1_pick_place_ppo_runner_cfg", kind="debug",
               shipped_policy="PickPlace-G1-v0")
