@@ -47,3 +47,13 @@ def test_a_run_without_an_evaluated_checkpoint_writes_no_curve(tmp_path):
     assert plot(result, str(tmp_path / "curve.png")) is False
     assert not (tmp_path / "curve.png").exists()
 
+
+
+def test_the_curve_title_says_whether_the_criteria_were_met():
+    """A run that missed its criteria was titled "time to policy None s"."""
+    from agile.run.time_to_policy import outcome
+
+    missed = {"time_to_policy_s": None, "budget_s": 420.0, "iteration_at_criteria": None}
+    assert outcome(missed) == "criteria not met within 420 s"
+    assert outcome({**missed, "time_to_policy_s": 287.4, "iteration_at_criteria": 650}) == \
+        "time to policy 287 s (iteration 650)"

@@ -188,6 +188,13 @@ def judge_as_they_come(args, judge: CheckpointJudge, process, start: float, log_
     return None
 
 
+def outcome(result: dict) -> str:
+    """The run's verdict in words, for the plot's title."""
+    if result["time_to_policy_s"] is None:
+        return f"criteria not met within {result['budget_s']:.0f} s"
+    return f"time to policy {result['time_to_policy_s']:.0f} s (iteration {result['iteration_at_criteria']})"
+
+
 def plot(result: dict, path: str) -> bool:
     """The curve of each evaluated metric against wall time into `path`; False (no file) when no checkpoint was
     evaluated (none written within the budget)."""
@@ -210,8 +217,7 @@ def plot(result: dict, path: str) -> bool:
             ax.axvline(result["first_iteration_s"], color="grey", ls=":")
         ax.set_xlabel("wall time since start [s]")
         ax.set_title(metric)
-    fig.suptitle(f"{result['task']}: time to policy {result['time_to_policy_s']} s "
-                 f"({result['gpus']} GPU(s); dotted: first iteration)")
+    fig.suptitle(f"{result['task']}: {outcome(result)} ({result['gpus']} GPU(s); dotted: first iteration)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
