@@ -6,8 +6,10 @@ import subprocess
 import sys
 
 import pytest
+from commands import run_main
 
 import agile.tasks
+from agile.cli import main as cli_main
 from agile.rl_env.rsl_rl import DistillationRunnerCfg
 from agile.tasks.catalogue import catalogue, evaluated_tasks, missed_criteria
 from agile.tasks.describe import MISSING, config_diff, task_config_tree
@@ -16,7 +18,9 @@ T1, G1 = "Velocity-T1-v0", "Velocity-G1-History-v0"
 
 
 def run_agile(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "agile", *args], capture_output=True, text=True, timeout=300)
+    """`agile ARGS`, run in this process (`agile.cli.main`): its exit code, stdout and stderr."""
+    code, out, err = run_main(cli_main, *args)
+    return subprocess.CompletedProcess(["agile", *args], code, out, err)
 
 
 def test_catalogue_kinds_come_from_the_registry():
@@ -144,6 +148,12 @@ def test_cli_diff_list_and_unknown_task():
     assert result.returncode == 0
     rows = {line.split()[0]: line.split()[1:] for line in result.stdout.splitlines()[1:]}
     assert rows[T1] == ["trainable", f"{T1}.pt"] and rows["Debug-T1-v0"] == ["debug", "-"]
+
+
+def test_python_m_agile_is_the_command_line():
+    """The module entry point in a fresh interpreter (the process is the point; the other tests call its main)."""
+    result = subprocess.run([sys.executable, "-m", "agile", "list"], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0 and result.stdout.split()[:4] == ["task", "kind", "shipped", "policy"], result.stderr
 
 
 @pytest.mark.parametrize("script", ["train", "eval_all"])  # one forwarding path; each script tests its own --help

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from commands import run_command
+from commands import FLAT_GROUND_ARGS, run_command
 import torch
 import yaml
 
@@ -16,10 +16,9 @@ ROOT = Path(__file__).resolve().parents[1]
 TEACHER = "Velocity-Height-G1-Teacher-v0"
 STUDENTS = {"Velocity-Height-G1-Student-Recurrent-v0": "velocity_height_g1_student_recurrent",
             "Velocity-Height-G1-Student-History-v0": "velocity_height_g1_student_history"}
-FLAT_GROUND = ["env.scene.terrain=null", "env.curriculum.terrain_levels=null"]
 """Distillation, fine-tuning and export do not depend on the ground, and a rough terrain takes seconds to build on a
 CPU (the shipped students' rollouts on their terrain are checked by tests/test_policy_fingerprints.py)."""
-SHORT = ["--num_envs", "2", "--max_iterations", "1", "--device", "cpu", "agent.num_steps_per_env=15", *FLAT_GROUND]
+SHORT = ["--num_envs", "2", "--max_iterations", "1", "--device", "cpu", "agent.num_steps_per_env=15", *FLAT_GROUND_ARGS]
 
 
 def run(script, *args):
@@ -90,7 +89,7 @@ def test_ppo_finetuning_starts_from_the_shipped_student_and_exports(task, tmp_pa
     # one iteration of critic warm-up, then one of PPO (one mini-batch: a recurrent one takes whole envs, of 2)
     code, out = run("scripts/train.py", "--task", task, "--log_root", str(tmp_path), "--num_envs", "2",
                     "--max_iterations", "2", "--device", "cpu", "agent.num_steps_per_env=15",
-                    "agent.critic_warmup_iterations=1", "agent.algorithm.num_mini_batches=1", *FLAT_GROUND)
+                    "agent.critic_warmup_iterations=1", "agent.algorithm.num_mini_batches=1", *FLAT_GROUND_ARGS)
     assert code == 0, out
     assert f"fine-tunes {FINETUNES[task]}" in out and "Mean value loss" in out, out  # PPO, not distillation
     assert "critic warm-up: 1 iterations with the actor held, learning rate 0.001" in out, out
@@ -165,7 +164,7 @@ def test_eval_reports_the_height_error_and_sweeps_velocity_by_height(teacher_run
     out = tmp_path / "sweep.json"
     code, log = run("scripts/eval.py", "--task", TEACHER, "--checkpoint", str(teacher_run / "model_0.pt"),
                     "--device", "cpu", "--num_envs", "4", "--episode_length_s", "0.2", "--sweep_lin_vel_x", "0", "0.5",
-                    "--sweep_base_height", "0.5", "0.72", "--out", str(out), *FLAT_GROUND)
+                    "--sweep_base_height", "0.5", "0.72", "--out", str(out), *FLAT_GROUND_ARGS)
     assert code == 0, log
     import json
 

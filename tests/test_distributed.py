@@ -1,10 +1,11 @@
 """Data-parallel training through torchrun: two CPU ranks with the gloo backend (scripts/train.py --distributed)."""
 
-import os
 import re
 import subprocess
 import sys
 from pathlib import Path
+
+from commands import run_command
 
 ROOT = Path(__file__).resolve().parents[1]
 FLAT_T1 = ["--task", "Velocity-T1-v0", "--device", "cpu", "--num_envs", "2", "--progress", "log",
@@ -43,12 +44,14 @@ def test_two_ranks_train_resume_and_end_with_the_same_weights(tmp_path):
     assert second[0] == second[1] != first[0]
 
 
-def test_distributed_needs_torchrun_and_torchrun_needs_distributed():
-    env = {k: v for k, v in os.environ.items() if k not in ("WORLD_SIZE", "RANK", "LOCAL_RANK")}
-    result = subprocess.run([sys.executable, "scripts/train.py", "--distributed", *FLAT_T1], cwd=ROOT, env=env,
-                            capture_output=True, text=True, timeout=300)
-    assert result.returncode != 0 and "start the processes with torchrun" in result.stdout + result.stderr
-    env.update(WORLD_SIZE="2", RANK="0", LOCAL_RANK="0")
-    result = subprocess.run([sys.executable, "scripts/train.py", *FLAT_T1], cwd=ROOT, env=env, capture_output=True,
-                            text=True, timeout=300)
-    assert result.returncode != 0 and "without --distributed" in result.stdout + result.stderr
+def test_distributed_needs_torchrun_and_torchrun_needs_distributed(monkeypatch):
+    """Refused before anything is built, in this process: torchrun's environment variables are what decides."""
+    for name in ("WORLD_SIZE", "RANK", "LOCAL_RANK"):
+        monkeypatch.delenv(name, raising=False)
+    code, out, err = run_command("train", "--distributed", *FLAT_T1)
+    assert code != 0 and "start the processes with torchrun" in out + err
+    monkeypatch.setenv("WORLD_SIZE", "2")
+    monkeypatch.setenv("RANK", "0")
+    monkeypatch.setenv("LOCAL_RANK", "0")
+    code, out, err = run_command("train", *FLAT_T1)
+    assert code != 0 and "without --distributed" in out + err

@@ -7,6 +7,7 @@ import pytest
 import torch
 import warp as wp
 from tensordict import TensorDict
+from commands import FLAT_GROUND
 from scenes import robot_sim
 
 import agile.tasks
@@ -16,7 +17,7 @@ from agile.utils.config import ConfigError
 
 def test_gym_make_from_user_code_with_overrides():
     env = gym.make("Velocity-G1-History-v0", num_envs=2, device="cpu",
-                   overrides=["episode_length_s=5.0", "rewards.track_lin_vel_xy_exp.weight=1.5"])
+                   overrides=["episode_length_s=5.0", "rewards.track_lin_vel_xy_exp.weight=1.5", *FLAT_GROUND])
     u = env.unwrapped
     assert u.max_episode_length == 250 and u.reward_manager.weights["track_lin_vel_xy_exp"].item() == 1.5
     obs, extras = env.reset()
@@ -36,7 +37,8 @@ def test_unknown_task_lists_registered_ids():
 
 def test_regex_matching_no_joint_is_a_config_error_naming_the_term():
     with pytest.raises(ConfigError, match=r"action term 'joint_pos'.*'Hip_X' matches no joint.*Left_Hip_Pitch"):
-        gym.make("Velocity-T1-v0", num_envs=1, device="cpu", overrides=["actions.joint_pos.joint_names=['Hip_X']"])
+        gym.make("Velocity-T1-v0", num_envs=1, device="cpu",
+                 overrides=["actions.joint_pos.joint_names=['Hip_X']", *FLAT_GROUND])
 
 
 def test_views_are_zero_copy(t1_env):

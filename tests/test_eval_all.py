@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
+
 from commands import run_command
 
 from agile.tasks.catalogue import evaluated_tasks
@@ -13,27 +15,30 @@ from agile.tasks.catalogue import evaluated_tasks
 REPO = Path(__file__).resolve().parents[1]
 
 
-def test_eval_all_tiny_cpu_setting(tmp_path):
+@pytest.mark.parametrize("task", [e.task for e in evaluated_tasks()])
+def test_eval_all_tiny_cpu_setting(tmp_path, task):
+    """One task a test (each builds its env: spread over the workers)."""
     out = tmp_path / "eval"
     code, stdout, stderr = run_command("eval_all", "--device", "cpu", "--num_envs", "2", "--episode_length_s", "1",
-                                       "--out", out)
+                                       "--tasks", task, "--out", out)
     assert code == 0, stdout[-2000:] + stderr[-2000:]
+    report = (out / "report.md").read_text()
+    assert "Criteria not checked" in report and f"| {task} |" in report
+    metrics = json.loads((out / f"{task}.json").read_text())
+    assert metrics["criteria_checked"] is False and metrics["device"] == "cpu" and metrics["num_envs"] == 2
+    assert metrics["episodes"] == 2  # two envs, one 1 s episode each
+    # every criterion was measured (episode metrics such as a motion's body error among episode_metrics)
+    assert set(metrics["criteria"]) <= set(metrics) | set(metrics.get("episode_metrics", {}))
+    assert all(isinstance(v, float) and v == v for v in metrics["reward_per_step"].values())
+    if "lin_vel_error_mps" in metrics["criteria"]:
+        by_speed = metrics["error_by_command"]["lin_vel_error_mps_by_speed_mps"]
+        assert by_speed and all(row["steps"] > 0 and row["error"] >= 0.0 for row in by_speed)
+    assert ("base_height_error_m_by_height_m" in metrics["error_by_command"]) == ("base_height_error_m" in metrics)
+
+
+def test_eval_all_evaluates_each_shipped_policy_file_once():
     tasks = [e.task for e in evaluated_tasks()]
     assert tasks, "no task has a shipped policy"
-    report = (out / "report.md").read_text()
-    assert "Criteria not checked" in report
-    for task in tasks:
-        metrics = json.loads((out / f"{task}.json").read_text())
-        assert metrics["criteria_checked"] is False and metrics["device"] == "cpu" and metrics["num_envs"] == 2
-        assert metrics["episodes"] == 2  # two envs, one 1 s episode each
-        # every criterion was measured (episode metrics such as a motion's body error among episode_metrics)
-        assert set(metrics["criteria"]) <= set(metrics) | set(metrics.get("episode_metrics", {}))
-        assert all(isinstance(v, float) and v == v for v in metrics["reward_per_step"].values())
-        assert f"| {task} |" in report
-        if "lin_vel_error_mps" in metrics["criteria"]:
-            by_speed = metrics["error_by_command"]["lin_vel_error_mps_by_speed_mps"]
-            assert by_speed and all(row["steps"] > 0 and row["error"] >= 0.0 for row in by_speed)
-        assert ("base_height_error_m_by_height_m" in metrics["error_by_command"]) == ("base_height_error_m" in metrics)
     # one policy file, two task IDs: evaluated once, under the file's name
     assert "Velocity-Height-G1-Teacher-v0" in tasks and "Velocity-Height-G1-v0" not in tasks
 

@@ -16,6 +16,7 @@ from agile.assets.unitree_g1 import g1_robot_cfg
 from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, make_recurrent, to_rsl_rl_dict
 from agile.rl_env.rsl_rl.exporter import (example_input, export_policy, io_descriptor, read_io_descriptor,
                                           write_io_descriptor)
+from commands import FLAT_GROUND
 from scenes import robot_sim
 
 from agile.run import sim2mujoco  # noqa: E402
@@ -229,7 +230,7 @@ def test_each_action_term_describes_itself_and_sim2mujoco_refuses_what_is_not_jo
 def test_the_io_descriptor_carries_the_envs_action_clamp(task):
     """The deployment clamps the raw policy output as the env does (`clip_actions`, read from the IO descriptor): the
     last-action observation in MuJoCo holds what the policy saw in training."""
-    env = gym.make(task, num_envs=1, device="cpu").unwrapped
+    env = gym.make(task, num_envs=1, device="cpu", overrides=FLAT_GROUND).unwrapped
     _, agent_cfg = agile.tasks.load_cfgs(task)
     assert io_descriptor(env, agent_cfg)["clip_actions"] == env.cfg.clip_actions == env.action_manager.clip_actions
     env.close()

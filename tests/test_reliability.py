@@ -7,18 +7,18 @@ import gymnasium as gym
 import pytest
 import torch
 
+from commands import FLAT_GROUND
+
 import agile.tasks  # noqa: F401
 from agile.rl_env.mdp import last_action
 from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, flatten_groups
 from agile.sim.terrain import TerrainGeneratorCfg, cache_dir, cache_key, load_or_generate_terrain
 from agile.utils.config import ConfigError
 
-FLAT = ["scene.terrain=null", "curriculum.terrain_levels=null"]
-
 
 @pytest.fixture(scope="module")
 def env():
-    env = gym.make("Velocity-T1-v0", num_envs=2, device="cpu", seed=0, overrides=FLAT).unwrapped
+    env = gym.make("Velocity-T1-v0", num_envs=2, device="cpu", seed=0, overrides=FLAT_GROUND).unwrapped
     yield env
     env.close()
 
@@ -43,7 +43,7 @@ def test_a_nan_action_is_replaced_ended_and_counted(env):
 
 
 def test_the_last_action_is_the_raw_action_and_far_off_ones_are_clamped_to_clip_actions():
-    env = gym.make("Velocity-T1-v0", num_envs=4, device="cpu", seed=0, overrides=FLAT).unwrapped
+    env = gym.make("Velocity-T1-v0", num_envs=4, device="cpu", seed=0, overrides=FLAT_GROUND).unwrapped
     wrapped = RslRlVecEnvWrapper(env)
     term = env.action_manager.get_term("joint_pos")
     clip = env.action_manager.clip_actions
@@ -70,7 +70,7 @@ def test_the_last_action_is_the_raw_action_and_far_off_ones_are_clamped_to_clip_
 
 def test_clip_actions_must_be_positive():
     with pytest.raises(ConfigError, match="clip_actions must be positive"):
-        gym.make("Velocity-T1-v0", num_envs=1, device="cpu", overrides=[*FLAT, "clip_actions=0.0"])
+        gym.make("Velocity-T1-v0", num_envs=1, device="cpu", overrides=[*FLAT_GROUND, "clip_actions=0.0"])
 
 
 def test_a_non_finite_reward_term_counts_zero_and_is_counted_per_term():
@@ -79,7 +79,7 @@ def test_a_non_finite_reward_term_counts_zero_and_is_counted_per_term():
         value[0] = float("nan")
         return value
 
-    env = gym.make("Velocity-T1-v0", num_envs=2, device="cpu", overrides=FLAT).unwrapped
+    env = gym.make("Velocity-T1-v0", num_envs=2, device="cpu", overrides=FLAT_GROUND).unwrapped
     env.reward_manager.funcs["lin_vel_z"] = nan_in_env_0
     for _ in range(3):
         _, reward, _, _, _ = env.step(torch.zeros(2, env.action_manager.total_action_dim))

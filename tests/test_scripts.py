@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from commands import run_command
+from commands import FLAT_GROUND_ARGS, SMALL_TERRAIN_ARGS, run_command
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -19,8 +19,6 @@ def command_of(script: str) -> str:
     return Path(script).stem
 
 
-FLAT_GROUND = ("env.scene.terrain=null", "env.curriculum.terrain_levels=null")
-"""Overrides for a test of something other than the terrain: building a rough terrain costs seconds on a CPU."""
 
 
 def run(script, *args, timeout=600):
@@ -90,15 +88,16 @@ def test_help_of_every_command(command, capsys):
             and "terrain=null" in out, out
 
 
-def test_a_quiet_run_prints_no_library_noise(trained_run):
-    run_dir, args = trained_run
-    code, out = run_process(*args[:-1], "--resume", "agent.num_steps_per_env=4")
+def test_a_quiet_run_prints_no_library_noise(tmp_path):
+    code, out = run_process("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "1",
+                            "--device", "cpu", "--log_root", str(tmp_path), "agent.num_steps_per_env=4",
+                            *FLAT_GROUND_ARGS)
     assert code == 0, out
     assert not [n for n in NOISE if n in out], out
     assert "Learning iteration" in out and "\x1b[" not in out, out  # rsl-rl's block, without bold codes in a log
     assert "[agile] building Velocity-T1-v0" in out  # a word of progress before the long first build
     code, out = run_process("scripts/play.py", "--task", "Velocity-T1-v0", "--num_envs", "1", "--num_steps", "2",
-                            "--device", "cpu", "--verbose", *FLAT_GROUND)
+                            "--device", "cpu", "--verbose", *FLAT_GROUND_ARGS)
     assert code == 0 and "load on device" in out, out  # --verbose shows Warp's module loads again
 
 
@@ -150,7 +149,7 @@ def test_train_with_injected_nan_actions_logs_the_envs_it_ended(tmp_path):
 
     code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "4", "--max_iterations", "2",
                     "--device", "cpu", "--log_root", str(tmp_path), "--inject_nan_actions", "0.5", "1",
-                    "agent.num_steps_per_env=4", *FLAT_GROUND)
+                    "agent.num_steps_per_env=4", *FLAT_GROUND_ARGS)
     assert code == 0, out
     assert "fault injection 1: NaN actions in 2 envs" in out and "fault injection 2" not in out, out
     iterations = out.split("Learning iteration ")[1:]
@@ -168,7 +167,7 @@ def test_train_init_policy_starts_from_the_shipped_actor(tmp_path):
     shipped = ROOT / "agile" / "data" / "policy" / "Velocity-T1-v0.pt"
     code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "1",
                     "--device", "cpu", "--log_root", str(tmp_path), "--init_policy", str(shipped),
-                    "agent.num_steps_per_env=4", *FLAT_GROUND)
+                    "agent.num_steps_per_env=4", *FLAT_GROUND_ARGS)
     assert code == 0 and "actor initialised from" in out, out
     checkpoint = next((tmp_path / "velocity_t1").iterdir()) / "model_0.pt"
     trained = torch.load(checkpoint, weights_only=True)
@@ -187,7 +186,7 @@ def test_train_init_action_std_resets_the_loaded_actors_noise(tmp_path):
     shipped = ROOT / "agile" / "data" / "policy" / "Velocity-T1-v0.pt"
     code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "1",
                     "--device", "cpu", "--log_root", str(tmp_path), "--init_policy", str(shipped),
-                    "--init_action_std", "0.4", "agent.num_steps_per_env=4", *FLAT_GROUND)
+                    "--init_action_std", "0.4", "agent.num_steps_per_env=4", *FLAT_GROUND_ARGS)
     assert code == 0 and "action noise reset to std 0.4" in out, out
     run_dir = next((tmp_path / "velocity_t1").iterdir())
     trained = torch.load(run_dir / "model_0.pt", weights_only=True)["actor_state_dict"]
@@ -209,7 +208,7 @@ def test_train_rejects_bad_input(tmp_path):
 
 def test_play_runs_sinusoidal_actions():
     code, out = run("scripts/play.py", "--task", "Velocity-G1-History-v0", "--num_envs", "2", "--num_steps", "10",
-                    "--device", "cpu")
+                    "--device", "cpu", *FLAT_GROUND_ARGS)
     assert code == 0 and "10 steps" in out, out
 
 
@@ -244,10 +243,10 @@ def test_eval_of_a_shipped_policy_trained_on_the_registered_task(tmp_path):
 def test_benchmark_runs_on_cpu(tmp_path):
     out_file = tmp_path / "bench.json"
     code, out = run("scripts/benchmark.py", "--task", "Velocity-T1-v0", "--device", "cpu", "--num_envs", "2",
-                    "--steps", "5", "--train_iterations", "1", "--out", str(out_file))
+                    "--steps", "5", "--train_iterations", "1", "--out", str(out_file), *SMALL_TERRAIN_ARGS)
     assert code == 0 and out_file.is_file(), out
     row = json.loads(out_file.read_text())["results"][0]
-    # T1 on its terrain touches the ground with both feet: rows and contacts were used, none past the cap
+    # T1 on a terrain touches the ground with both feet: rows and contacts were used, none past the cap
     assert 0 < row["peak_constraint_rows_per_world"] <= row["njmax"] and row["constraint_row_overflows"] == 0
     assert 0 < row["peak_contacts_mean_per_world"] <= row["contact_capacity_per_world"]
 
@@ -256,13 +255,13 @@ def test_play_and_eval_run_a_checkpoint(trained_run, tmp_path):
     run_dir, _ = trained_run
     checkpoint = str(sorted(run_dir.glob("model_*.pt"))[-1])
     code, out = run("scripts/play.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--num_steps", "5",
-                    "--device", "cpu", "--checkpoint", checkpoint, *FLAT_GROUND)
+                    "--device", "cpu", "--checkpoint", checkpoint, *FLAT_GROUND_ARGS)
     assert code == 0 and "5 steps" in out, out
     metrics_file = tmp_path / "eval.json"
     # flat ground for the USD stage: a rough terrain is a 6-million-vertex mesh in it (a minute of writing on a CPU)
     code, out = run("scripts/eval.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--device", "cpu",
                     "--checkpoint", checkpoint, "--episode_length_s", "0.5", "--out", str(metrics_file),
-                    "--usd", str(tmp_path / "eval.usda"), *FLAT_GROUND)
+                    "--usd", str(tmp_path / "eval.usda"), *FLAT_GROUND_ARGS)
     assert code == 0 and (tmp_path / "eval.usda").is_file(), out
     metrics = json.loads(metrics_file.read_text())
     assert metrics["episodes"] >= 2 and 0.0 <= metrics["fall_rate"] <= 1.0
@@ -279,7 +278,7 @@ def test_actor_only_policy_file_loads_like_a_checkpoint(trained_run, tmp_path):
     torch.save({"actor_state_dict": saved["actor_state_dict"], "iter": saved["iter"], "infos": None}, actor_only)
     code, out = run("scripts/eval.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--device", "cpu",
                     "--checkpoint", str(actor_only), "--episode_length_s", "0.2", "--command", "0.3", "0", "0",
-                    *FLAT_GROUND)
+                    *FLAT_GROUND_ARGS)
     assert code == 0 and '"fall_rate"' in out, out
 
 
@@ -289,7 +288,7 @@ def test_export_and_sim2mujoco_scripts(trained_run, tmp_path):
     checkpoint = str(sorted(run_dir.glob("model_*.pt"))[-1])
     out = tmp_path / "exported"
     code, text = run("scripts/export.py", "--task", "Velocity-T1-v0", "--device", "cpu", "--checkpoint", checkpoint,
-                     "--out", str(out), *FLAT_GROUND)
+                     "--out", str(out), *FLAT_GROUND_ARGS)
     assert code == 0 and (out / "io_descriptor.yaml").is_file(), text
     metrics_file = tmp_path / "s2m.json"
     code, text = run("scripts/sim2mujoco.py", "--io", str(out / "io_descriptor.yaml"), "--policy",
@@ -304,7 +303,7 @@ def test_play_records_a_usd_stage_with_one_sample_per_step(tmp_path):
 
     stage_path = tmp_path / "rollout.usda"
     code, out = run("scripts/play.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--num_steps", "7",
-                    "--device", "cpu", "--usd", str(stage_path), *FLAT_GROUND)
+                    "--device", "cpu", "--usd", str(stage_path), *FLAT_GROUND_ARGS)
     assert code == 0 and stage_path.is_file(), out
     stage = Usd.Stage.Open(str(stage_path))
     samples = {a.GetNumTimeSamples() for p in stage.Traverse() for a in p.GetAttributes()
@@ -318,7 +317,7 @@ def test_play_renders_a_video_headless(tmp_path):
 
     video_path = tmp_path / "rollout.mp4"
     code, out = run("scripts/play.py", "--task", "Velocity-G1-History-v0", "--num_envs", "1", "--num_steps", "6",
-                    "--device", "cpu", "--video", str(video_path))
+                    "--device", "cpu", "--video", str(video_path), *FLAT_GROUND_ARGS)
     assert code == 0 and video_path.is_file(), out
     frames = [frame for frame in imageio.get_reader(str(video_path))]  # list() trips on its infinite len()
     assert len(frames) == 6 and frames[0].shape == (480, 640, 3)
@@ -333,7 +332,7 @@ def test_train_records_clips_every_n_iterations(tmp_path):
     code, out = run("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "2",
                     "--device", "cpu", "--log_root", str(tmp_path), "--video", "--video_interval", "1",
                     "--video_length", "3", "--rnn", "gru", "agent.num_steps_per_env=4", "agent.actor.rnn_hidden_dim=16",
-                    "agent.critic.rnn_hidden_dim=16", *FLAT_GROUND)
+                    "agent.critic.rnn_hidden_dim=16", *FLAT_GROUND_ARGS)
     assert code == 0, out
     run_dir = next((tmp_path / "velocity_t1").iterdir())
     assert sorted(p.name for p in (run_dir / "videos").iterdir()) == ["iteration_1.mp4", "iteration_2.mp4"]
@@ -401,7 +400,7 @@ def test_error_by_command_bins_hand_values():
 def test_train_progress_bar_shows_the_eta_and_a_full_block_every_n_iterations(tmp_path):
     code, out, err = run_split("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations",
                                "3", "--device", "cpu", "--log_root", str(tmp_path), "--progress", "bar",
-                               "--full_log_every", "2", "agent.num_steps_per_env=4")
+                               "--full_log_every", "2", "agent.num_steps_per_env=4", *FLAT_GROUND_ARGS)
     assert code == 0, out + err
     bar = err.replace("\r", "\n").splitlines()
     assert any("training: 100%" in line and "3/3" in line and "iteration=2" in line for line in bar), err
@@ -429,7 +428,7 @@ def test_the_library_is_quiet_by_default():
     its banner, kernel loads and CUDA-driver warning included."""
     import os
 
-    program = ("import gymnasium as gym, torch, agile.tasks\n"
+    program = ("import gymnasium as gym, torch, agile.tasks\n"  # on the task's terrain (the quiet run is on flat ground)
                "env = gym.make('Velocity-T1-v0', num_envs=1, device='cpu')\n"
                "env.reset(); env.step(torch.zeros(1, 12)); print('stepped')\n")
     result = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, timeout=600,

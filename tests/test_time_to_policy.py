@@ -3,6 +3,8 @@ evaluated as they appear (or after the training) and the run reports the first o
 
 import json
 
+from commands import FLAT_GROUND_ARGS
+
 from agile.run.time_to_policy import main
 
 
@@ -10,7 +12,7 @@ def test_the_run_stops_at_the_first_checkpoint_that_meets_the_criteria(tmp_path,
     out = tmp_path / "t1"
     code = main(["--task", "Velocity-T1-v0", "--budget_s", "300", "--num_envs", "2", "--device", "cpu",
                  "--save_interval", "1", "--eval_num_envs", "2", "--eval_episode_length_s", "0.4",
-                 "--criterion", "fall_rate=1.0", "--out", str(out), "agent.num_steps_per_env=4"])
+                 "--criterion", "fall_rate=1.0", "--out", str(out), "agent.num_steps_per_env=4", *FLAT_GROUND_ARGS])
     result = json.loads(out.with_suffix(".json").read_text())
     assert code == 0, capsys.readouterr()
     # met at the first checkpoint evaluated (the newest when the evaluator looks: with iterations this short the
@@ -28,7 +30,7 @@ def test_evaluating_after_the_training_reports_the_first_checkpoint_that_meets_t
     code = main(["--task", "Velocity-T1-v0", "--budget_s", "40", "--num_envs", "2", "--device", "cpu",
                  "--save_interval", "1", "--eval_num_envs", "2", "--eval_episode_length_s", "0.2",
                  "--evaluate_after_training", "--criterion", "fall_rate=1.0", "--out", str(out),
-                 "agent.num_steps_per_env=2"])
+                 "agent.num_steps_per_env=2", *FLAT_GROUND_ARGS])
     result = json.loads(out.with_suffix(".json").read_text())
     assert code == 0, capsys.readouterr()
     (first,) = result["evaluations"]

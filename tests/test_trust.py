@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 import torch
-from commands import run_command
+from commands import FLAT_GROUND_ARGS, run_command
 from evil_payload import Payload
 
 from agile.rl_env.rsl_rl.checkpoints import UntrustedCheckpointError, load_checkpoint
@@ -72,7 +72,7 @@ def test_every_script_refuses_it_at_once(evil_checkpoint, command, tmp_path):
 def test_trust_checkpoint_loads_it_the_old_way(evil_checkpoint, tmp_path):
     path, marker = evil_checkpoint
     code, out = run("scripts/export.py", "--task", "Velocity-T1-v0", "--checkpoint", str(path), "--device", "cpu",
-                    "--out", str(tmp_path / "exported"), "--trust_checkpoint")
+                    "--out", str(tmp_path / "exported"), "--trust_checkpoint", *FLAT_GROUND_ARGS)
     assert code == 0, out
     assert marker.exists() and (tmp_path / "exported" / "policy.onnx").is_file()
 

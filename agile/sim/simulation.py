@@ -47,11 +47,15 @@ TERRAIN_COLLISIONS = ("probes", "newton_pipeline")
 
 def check_physics_cfg(cfg: SimCfg, scene_cfg: SceneCfg) -> None:
     """Solver budgets and iterations of 0 run a world without contacts or constraint solving (MuJoCo prints an
-    overflow every step instead of failing); MuJoCo warns that a friction of 0 may give NaN."""
+    overflow every step instead of failing); MuJoCo warns that a friction of 0 may give NaN. Checked before anything
+    is built."""
     problems = [f"sim.solver.{p}" for p in domain_problems(
         cfg.solver, positive=("iterations", "ls_iterations", "njmax", "nconmax", "impratio"))]
     problems += [f"scene.{p}" for p in domain_problems(scene_cfg, positive=("ground_friction",),
                                                        non_negative=("terrain_contact_gap_m",))]
+    max_init_level = scene_cfg.max_init_terrain_level
+    if max_init_level is not None and max_init_level < 0:  # checked before the terrain is built (seconds on a CPU)
+        problems.append(f"scene.max_init_terrain_level must be >= 0 (or None: any row), got {max_init_level}")
     if scene_cfg.terrain_collision not in TERRAIN_COLLISIONS:
         problems.append(f"scene.terrain_collision must be one of {list(TERRAIN_COLLISIONS)}, "
                         f"got {scene_cfg.terrain_collision!r}")
@@ -294,8 +298,6 @@ class Simulation:
         """Env i gets column i % num_cols and a row drawn in [0, max_init_level] (Isaac Lab TerrainImporter)."""
         origins = self.terrain.cell_origins_m
         num_rows, num_cols = origins.shape[:2]
-        if max_init_level is not None and max_init_level < 0:
-            raise ConfigError(f"scene.max_init_terrain_level must be >= 0 (or None: any row), got {max_init_level}")
         max_init = num_rows - 1 if max_init_level is None else min(max_init_level, num_rows - 1)
         self.terrain_origins_m = torch.from_numpy(origins).to(self.device)
         """(num_rows, num_cols, 3) spawn point of each cell."""
