@@ -24,19 +24,20 @@ def test_the_run_stops_at_the_first_checkpoint_that_meets_the_criteria(tmp_path,
 
 
 def test_evaluating_after_the_training_reports_the_first_checkpoint_that_meets_the_criteria(tmp_path, capsys):
-    """The training runs undisturbed for the whole budget; then the checkpoints are evaluated in order, the first that
-    meets the criteria (here: the first of all) gives the time to policy, when it was written."""
+    """The training runs undisturbed (here to its third and last iteration, well inside the budget: on a machine
+    compiling the kernels the first iteration came at 35 s); then the checkpoints are evaluated in order, the first
+    that meets the criteria (here: the first of all) gives the time to policy, when it was written."""
     out = tmp_path / "after"
-    code = main(["--task", "Velocity-T1-v0", "--budget_s", "40", "--num_envs", "2", "--device", "cpu",
-                 "--save_interval", "1", "--eval_num_envs", "2", "--eval_episode_length_s", "0.2",
+    code = main(["--task", "Velocity-T1-v0", "--budget_s", "300", "--max_iterations", "3", "--num_envs", "2",
+                 "--device", "cpu", "--save_interval", "1", "--eval_num_envs", "2", "--eval_episode_length_s", "0.2",
                  "--evaluate_after_training", "--criterion", "fall_rate=1.0", "--out", str(out),
                  "agent.num_steps_per_env=2", *FLAT_GROUND_ARGS])
     result = json.loads(out.with_suffix(".json").read_text())
     assert code == 0, capsys.readouterr()
     (first,) = result["evaluations"]
     assert first["iteration"] == 0 and first["met"] and result["evaluated"] == "after the training"
-    assert result["time_to_policy_s"] == first["wall_s"] < 40
-    assert "Learning iteration 1" in (tmp_path / "after.log").read_text()  # it trained on past the first checkpoint
+    assert result["time_to_policy_s"] == first["wall_s"] < 300
+    assert "Learning iteration 2" in (tmp_path / "after.log").read_text()  # it trained on past the first checkpoint
 
 
 def test_a_run_without_an_evaluated_checkpoint_writes_no_curve(tmp_path):
