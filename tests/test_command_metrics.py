@@ -8,6 +8,7 @@ import math
 import gymnasium as gym
 import pytest
 import torch
+from commands import FLAT_GROUND
 from fakes import FakeEnv
 
 import agile.tasks
@@ -294,7 +295,7 @@ def test_eval_counts_each_envs_first_episodes_only():
     from agile.run.eval import evaluate
 
     env = gym.make("Velocity-T1-v0", num_envs=2, device="cpu",
-                   overrides=["episode_length_s=2.0", "scene.terrain=null", "curriculum.terrain_levels=null"]).unwrapped
+                   overrides=["episode_length_s=2.0", *FLAT_GROUND]).unwrapped
     num_actions = env.action_manager.total_action_dim
     torch.manual_seed(0)
     metrics = evaluate(env, lambda obs: 20.0 * torch.randn(env.num_envs, num_actions), num_episodes=1)

@@ -5,11 +5,10 @@ import subprocess
 import sys
 from pathlib import Path
 
-from commands import run_command
+from commands import FLAT_GROUND_ARGS, run_command
 
 ROOT = Path(__file__).resolve().parents[1]
-FLAT_T1 = ["--task", "Velocity-T1-v0", "--device", "cpu", "--num_envs", "2", "--progress", "log",
-           "env.scene.terrain=null", "env.curriculum.terrain_levels=null"]
+FLAT_T1 = ["--task", "Velocity-T1-v0", "--device", "cpu", "--num_envs", "2", "--progress", "log", *FLAT_GROUND_ARGS]
 
 
 def torchrun(*args, nproc=2, timeout=600):

@@ -114,20 +114,19 @@ def test_training_state_round_trip_restores_the_step_counter_terrain_levels_and_
 def test_training_state_round_trip_restores_adaptive_curricula(capsys):
     """An adaptive curriculum's state (here the pushing curriculum's push scale; the stand-up lift's strength the
     same way) comes back on resume, in place: the push event reads the very tensor the curriculum writes."""
-    flat = ["scene.terrain=null", "curriculum.terrain_levels=null"]
-    first = gym.make("Velocity-G1-Teacher-v0", num_envs=2, device="cpu", overrides=flat).unwrapped
+    first = gym.make("Velocity-G1-Teacher-v0", num_envs=2, device="cpu", overrides=FLAT_GROUND).unwrapped
     pushing = first.curriculum_manager.funcs["pushing_velocity"]
     pushing.scale.copy_(torch.tensor([0.5, 0.25, 1.0, 1.0, 1.0, 2.0]))
     state = first.training_state()
     assert "curriculum/pushing_velocity.scale" in state
-    second = gym.make("Velocity-G1-Teacher-v0", num_envs=2, device="cpu", seed=3, overrides=flat).unwrapped
+    second = gym.make("Velocity-G1-Teacher-v0", num_envs=2, device="cpu", seed=3, overrides=FLAT_GROUND).unwrapped
     second.load_training_state(state)
     restored = second.curriculum_manager.funcs["pushing_velocity"].scale
     assert restored.tolist() == [0.5, 0.25, 1.0, 1.0, 1.0, 2.0]
     assert second.event_manager.term_cfgs["push_robot"].params["velocity_scale"] is restored
     # a checkpoint from before the curriculum had state: it starts afresh, and says so
     older = {k: v for k, v in state.items() if not k.startswith("curriculum/")}
-    third = gym.make("Velocity-G1-Teacher-v0", num_envs=2, device="cpu", overrides=flat).unwrapped
+    third = gym.make("Velocity-G1-Teacher-v0", num_envs=2, device="cpu", overrides=FLAT_GROUND).unwrapped
     third.load_training_state(older)
     assert third.curriculum_manager.funcs["pushing_velocity"].scale.tolist() == [1.0] * 6
     assert "pushing_velocity.scale" in capsys.readouterr().out
@@ -214,6 +213,6 @@ def test_a_corrupted_terrain_cache_is_rebuilt_and_a_bad_terrain_is_never_written
 ])
 def test_a_value_outside_its_domain_is_named_at_build(override, message):
     # flat ground unless the value is the terrain's: a rough terrain takes seconds to build on a CPU
-    flat = [] if "terrain" in override else ["scene.terrain=null", "curriculum.terrain_levels=null"]
+    flat = [] if "terrain" in override else FLAT_GROUND
     with pytest.raises(ConfigError, match=message):
         gym.make("Velocity-T1-v0", num_envs=1, device="cpu", overrides=[override, *flat])
