@@ -5,7 +5,8 @@
 
 For each env count, from one process on one device: raw physics (the captured decimation loop alone, no
 managers, from the state the env has after one second of random actions), env.step with random actions and
-its ratio to raw physics, PPO training (rollout + update) and its ratio, startup (gym.make to the first step
+its ratio to raw physics, PPO training (rollout + update, with the training's runner, logger and NaN check as
+`agile train` runs them, logging into a temporary folder) and its ratio, startup (gym.make to the first step
 done), device memory in use, the share of the env step spent in the explicit actuators (raw physics with and
 without them), the solver iterations of the slowest world under raw physics and under env.step (untimed),
 and where a training iteration's time goes (env steps, policy inference and rollout storage, PPO update), and the
@@ -19,6 +20,7 @@ from __future__ import annotations
 import argparse
 import copy
 import json
+import tempfile
 import time
 
 from agile.run import common as cli
@@ -147,11 +149,12 @@ def time_training_phases(runner, env, iterations: int) -> dict:
 
 def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterations: int) -> dict:
     import torch
-    from rsl_rl.runners import OnPolicyRunner
 
     from agile.rl_env import ManagerBasedRLEnv
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+    from agile.rl_env.rsl_rl.checkpoints import runner_class
     from agile.rl_env.rsl_rl.runner_cfg import set_matmul_precision
+    from agile.rl_env.rsl_rl.vecenv_wrapper import defer_nan_check
 
     flat_raw = flat_raw_physics(env_cfg, device, steps) if env_cfg.scene.terrain is not None else None
     start = time.perf_counter()
@@ -186,16 +189,17 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
         env.sim, lambda: env.step(torch.rand_like(actions[0]) * 2 - 1), 20)
 
     agent_cfg.max_iterations = train_iterations
-    wrapped = RslRlVecEnvWrapper(env)
+    train_cfg = to_rsl_rl_dict(agent_cfg)
+    wrapped = RslRlVecEnvWrapper(env, defer_nan_check(train_cfg))
     set_matmul_precision(agent_cfg)
-    with cli.quiet_stdout():
-        runner = OnPolicyRunner(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=None, device=str(env.device))
-    runner.learn(1)  # warm-up: allocations, first update
-    synchronize(env.device)
-    start = time.perf_counter()
-    runner.learn(train_iterations)
-    synchronize(env.device)
-    iteration_s = (time.perf_counter() - start) / train_iterations
+    with tempfile.TemporaryDirectory() as log_dir, cli.quiet_stdout():
+        runner = runner_class(agent_cfg)(wrapped, train_cfg, log_dir=log_dir, device=str(env.device))
+        runner.learn(1)  # warm-up: allocations, first update
+        synchronize(env.device)
+        start = time.perf_counter()
+        runner.learn(train_iterations)  # its end saves a checkpoint, as every training's does
+        synchronize(env.device)
+        iteration_s = (time.perf_counter() - start) / train_iterations
     train = n * agent_cfg.num_steps_per_env / iteration_s
     phases = time_training_phases(runner, wrapped, train_iterations)
     memory = device_memory_used_gb(env.device)
@@ -227,7 +231,7 @@ def main(argv=None) -> None:
                         help="env counts to measure, one after another")
     parser.add_argument("--device", default=None, help="cuda:0 or cpu (default: cuda:0 when a GPU is present)")
     parser.add_argument("--steps", type=int, default=200, help="env steps timed per measurement")
-    parser.add_argument("--train_iterations", type=int, default=5,
+    parser.add_argument("--train_iterations", type=int, default=10,
                         help="PPO iterations timed for the training rate (after one untimed)")
     parser.add_argument("--out", default=None, help="write the results as JSON here")
     parser.add_argument("overrides", nargs="*", help=cli.OVERRIDE_HELP)

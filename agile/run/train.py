@@ -308,6 +308,7 @@ def main(argv=None) -> None:
 
     from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
     from agile.rl_env.rsl_rl.checkpoints import restore_runner, runner_class
+    from agile.rl_env.rsl_rl.vecenv_wrapper import defer_nan_check
     from agile.rl_env.rsl_rl.runner_cfg import set_matmul_precision
     from agile.rl_env.rsl_rl.progress import show_progress
     from agile.rl_env.rsl_rl.distillation import load_teacher
@@ -319,16 +320,18 @@ def main(argv=None) -> None:
     if rank is None or rank.is_main:
         log_dir = cli.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
         cli.dump_configs(log_dir, env_cfg, agent_cfg)
+    train_cfg = to_rsl_rl_dict(agent_cfg)
+    nan_check_every_steps = defer_nan_check(train_cfg)
     if args.inject_nan_actions is None:
-        wrapped = RslRlVecEnvWrapper(env)
+        wrapped = RslRlVecEnvWrapper(env, nan_check_every_steps)
     else:
         from agile.rl_env.rsl_rl.fault_injection import NanActionVecEnv
 
         share, every = args.inject_nan_actions
-        wrapped = NanActionVecEnv(env, share, int(every), agent_cfg.num_steps_per_env)
+        wrapped = NanActionVecEnv(env, share, int(every), agent_cfg.num_steps_per_env, nan_check_every_steps)
     set_matmul_precision(agent_cfg)
     with cli.quiet_stdout():
-        runner = runner_class(agent_cfg)(wrapped, to_rsl_rl_dict(agent_cfg), log_dir=log_dir, device=str(env.device))
+        runner = runner_class(agent_cfg)(wrapped, train_cfg, log_dir=log_dir, device=str(env.device))
     runner.logger.git_status_repos = cli.git_repos()
     if log_dir is not None:
         show_progress(runner, args.progress, args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)

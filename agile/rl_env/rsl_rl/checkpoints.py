@@ -16,6 +16,8 @@ import re
 import torch
 from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 
+from agile.rl_env.rsl_rl.sync_free_logger import SyncFreeLogger, rebuilt_logger
+
 TRUST_FLAG = "--trust_checkpoint"
 
 
@@ -68,7 +70,12 @@ def restore_runner(runner, checkpoint: dict, load_cfg: dict | None = None, stric
 
 class CheckpointingRunner(OnPolicyRunner):
     """rsl-rl's runner, with checkpoints written whole or not at all (a temporary file, then renamed) and holding
-    the env's training state (`infos["env_state"]`, from the env's `training_state()` where it has one)."""
+    the env's training state (`infos["env_state"]`, from the env's `training_state()` where it has one), and a
+    logger that does not synchronise with the GPU at every env step (`SyncFreeLogger`)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.logger = rebuilt_logger(SyncFreeLogger, self.logger, self)
 
     def save(self, path: str, infos: dict | None = None) -> None:
         infos = dict(infos or {})

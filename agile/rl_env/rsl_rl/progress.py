@@ -1,6 +1,7 @@
 """Training progress as one line with an ETA (tqdm) instead of rsl-rl's 40-line block every iteration.
 
-rsl-rl's `Logger.log` writes tensorboard scalars and prints a block per iteration. `ProgressLogger` keeps
+rsl-rl's `Logger.log` writes tensorboard scalars and prints a block per iteration. Both loggers here build on
+`SyncFreeLogger` (no host synchronisation per env step). `ProgressLogger` keeps
 everything it writes and shows a bar instead: iterations done of the run's, the rate, the time left, and the mean
 reward and episode length; rsl-rl's full block still appears every `full_log_every` iterations (0: never), above
 the bar.
@@ -16,23 +17,15 @@ import statistics
 from rsl_rl.utils.logger import Logger
 from tqdm import tqdm
 
+from agile.rl_env.rsl_rl.sync_free_logger import SyncFreeLogger, rebuilt_logger
+
 PROGRESS_MODES = ("auto", "bar", "log")
 """bar: the progress line; log: rsl-rl's block every iteration (log files); auto: bar on a terminal, else log."""
 ANSI_ESCAPE = re.compile(r"\x1b\[[0-9;]*m")
 """Terminal escape codes (rsl-rl prints its block's title in bold), noise in a log file."""
 
 
-def rebuilt_logger(cls, logger: Logger, runner) -> Logger:
-    """The runner's logger (log dir, config, buffers) as a `cls`, built with the arguments the runner gave its own,
-    before training starts (rsl-rl creates the tensorboard writer in `learn`)."""
-    new = cls(log_dir=logger.log_dir, cfg=logger.cfg, env_cfg=logger.env_cfg, num_envs=logger.num_envs,
-              is_distributed=runner.is_distributed, gpu_world_size=runner.gpu_world_size,
-              gpu_global_rank=runner.gpu_global_rank, device=logger.device)
-    new.git_status_repos = logger.git_status_repos
-    return new
-
-
-class PlainLogger(Logger):
+class PlainLogger(SyncFreeLogger):
     """rsl-rl's logger printing its block without terminal escape codes: for output redirected to a file."""
 
     def log(self, **kwargs) -> None:
@@ -43,7 +36,7 @@ class PlainLogger(Logger):
             print(ANSI_ESCAPE.sub("", block.getvalue()), end="", flush=True)
 
 
-class ProgressLogger(Logger):
+class ProgressLogger(SyncFreeLogger):
     """rsl-rl's logger with a progress bar; built from the runner's own logger (`from_logger`)."""
 
     full_log_every: int = 100

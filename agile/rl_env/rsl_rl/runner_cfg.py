@@ -107,7 +107,9 @@ class RunnerCommonCfg:
     save_interval: int = 100
     logger: str = "tensorboard"
     check_for_nan: bool = True
-    """rsl-rl checks every step's observations, rewards and dones for NaN (a host sync per check)."""
+    """Every step's observations and rewards are checked for NaN. Training runs the check in the env wrapper, on
+    the device, and reports once per rollout, before the update reads it (`defer_nan_check`); rsl-rl's own check
+    (a host sync per step) runs where a runner is built from `to_rsl_rl_dict` alone."""
     torch_compile_mode: str | None = None
     """rsl-rl compiles the models with torch.compile in this mode ("default", "max-autotune-no-cudagraphs");
     None: eager."""

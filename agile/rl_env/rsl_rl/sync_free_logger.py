@@ -1,0 +1,74 @@
+"""rsl-rl's training logger without a host synchronisation at every env step.
+
+rsl-rl's `Logger.process_env_step` finds the episodes that just ended with `nonzero` and copies their returns and
+lengths to the host, every env step: the host waits for the GPU to finish that step before it may launch the
+policy's next inference, so the GPU idles while Python launches the policy's and the storage's small kernels (a
+rollout's host launches are otherwise hidden behind the previous env step's graph). `SyncFreeLogger` writes each
+step's finished episodes into device buffers (one row per step of the rollout) and moves them to the host once per
+iteration, when it logs: the same returns and lengths, in the same order (step by step, env by env), in the same
+100-episode windows (`rewbuffer`, `lenbuffer`) that rsl-rl's report and tensorboard read.
+
+The training runners (`CheckpointingRunner`) use it, and the progress loggers (`agile.rl_env.rsl_rl.progress`)
+build on it. With RND's intrinsic rewards it keeps rsl-rl's per-step bookkeeping (none of our tasks uses RND).
+"""
+
+from __future__ import annotations
+
+import torch
+from rsl_rl.utils.logger import Logger
+
+
+def rebuilt_logger(cls, logger: Logger, runner) -> Logger:
+    """The runner's logger (log dir, config, buffers) as a `cls`, built with the arguments the runner gave its own,
+    before training starts (rsl-rl creates the tensorboard writer in `learn`)."""
+    new = cls(log_dir=logger.log_dir, cfg=logger.cfg, env_cfg=logger.env_cfg, num_envs=logger.num_envs,
+              is_distributed=runner.is_distributed, gpu_world_size=runner.gpu_world_size,
+              gpu_global_rank=runner.gpu_global_rank, device=logger.device)
+    new.git_status_repos = logger.git_status_repos
+    return new
+
+
+class SyncFreeLogger(Logger):
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        rows = max(1, int(self.cfg.get("num_steps_per_env", 1)))  # a rollout's steps: one flush per iteration
+        self.ended = torch.zeros(rows, self.num_envs, dtype=torch.bool, device=self.device)
+        """(steps, N): which envs' episodes ended at each step held since the last flush."""
+        self.ended_return = torch.zeros(rows, self.num_envs, device=self.device)
+        """(steps, N): the return summed up to each step (read where `ended`)."""
+        self.ended_length_steps = torch.zeros(rows, self.num_envs, device=self.device)
+        self.steps_held = 0
+
+    def process_env_step(self, rewards: torch.Tensor, dones: torch.Tensor, extras: dict,
+                         intrinsic_rewards: torch.Tensor | None = None) -> None:
+        if self.writer is None or intrinsic_rewards is not None:
+            super().process_env_step(rewards, dones, extras, intrinsic_rewards)
+            return
+        if "episode" in extras:
+            self.ep_extras.append(extras["episode"])
+        elif "log" in extras:
+            self.ep_extras.append(extras["log"])
+        self.cur_reward_sum += rewards
+        self.cur_episode_length += 1
+        if self.steps_held == len(self.ended):  # more steps than a rollout's before a log (a longer loop)
+            self.flush_ended_episodes()
+        row, ended = self.steps_held, dones > 0
+        self.ended[row] = ended
+        self.ended_return[row] = self.cur_reward_sum
+        self.ended_length_steps[row] = self.cur_episode_length
+        self.cur_reward_sum.masked_fill_(ended, 0.0)
+        self.cur_episode_length.masked_fill_(ended, 0.0)
+        self.steps_held += 1
+
+    def flush_ended_episodes(self) -> None:
+        """Move the held steps' ended episodes into rsl-rl's windows (one host synchronisation)."""
+        if self.steps_held == 0:
+            return
+        ended = self.ended[:self.steps_held]
+        self.rewbuffer.extend(self.ended_return[:self.steps_held][ended].tolist())
+        self.lenbuffer.extend(self.ended_length_steps[:self.steps_held][ended].tolist())
+        self.steps_held = 0
+
+    def log(self, **kwargs) -> None:
+        self.flush_ended_episodes()
+        super().log(**kwargs)

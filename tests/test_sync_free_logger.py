@@ -1,0 +1,103 @@
+"""The training logger without a host sync per env step keeps what rsl-rl's logger keeps; the NaN check moved out of
+rsl-rl's rollout loop into the wrapper still stops a rollout with NaN, naming its source."""
+
+import pytest
+import torch
+from rsl_rl.utils.logger import Logger
+from tensordict import TensorDict
+
+from agile.rl_env.rsl_rl.checkpoints import CheckpointingRunner
+from agile.rl_env.rsl_rl.progress import PlainLogger, ProgressLogger
+from agile.rl_env.rsl_rl.sync_free_logger import SyncFreeLogger
+from agile.rl_env.rsl_rl.vecenv_wrapper import RslRlVecEnvWrapper, defer_nan_check
+
+NUM_ENVS = 3
+
+
+def logger(cls, steps_per_env: int):
+    made = cls(log_dir=None, cfg={"num_steps_per_env": steps_per_env, "algorithm": {}}, env_cfg={},
+               num_envs=NUM_ENVS, is_distributed=False, gpu_world_size=1, gpu_global_rank=0, device="cpu")
+    made.writer = object()  # the bookkeeping runs where a writer exists (rank 0 of a run with a log dir)
+    return made
+
+
+@pytest.mark.parametrize("steps_per_env", [4, 1000])
+def test_the_same_episodes_in_the_same_order_as_rsl_rl_keeps(steps_per_env):
+    generator = torch.Generator().manual_seed(0)
+    plain, sync_free = logger(Logger, steps_per_env), logger(SyncFreeLogger, steps_per_env)
+    for step in range(300):  # 4 steps a rollout: many flushes, also mid-rollout; 1000: one flush at the end
+        rewards = torch.randn(NUM_ENVS, generator=generator)
+        dones = (torch.rand(NUM_ENVS, generator=generator) < 0.3).long()
+        extras = {"log": {"Episode_Reward/x": torch.tensor(float(step))}}
+        plain.process_env_step(rewards, dones, extras)
+        sync_free.process_env_step(rewards, dones, extras)
+        if step % steps_per_env == steps_per_env - 1:
+            sync_free.flush_ended_episodes()  # where it logs
+    sync_free.flush_ended_episodes()
+    assert len(plain.rewbuffer) == 100  # more than a window's episodes ended: the window holds the newest
+    assert list(sync_free.rewbuffer) == list(plain.rewbuffer)
+    assert list(sync_free.lenbuffer) == list(plain.lenbuffer)
+    assert torch.equal(sync_free.cur_reward_sum, plain.cur_reward_sum)
+    assert torch.equal(sync_free.cur_episode_length, plain.cur_episode_length)
+    assert len(sync_free.ep_extras) == len(plain.ep_extras) == 300
+
+
+def test_without_a_writer_nothing_is_kept():
+    quiet = logger(SyncFreeLogger, 4)
+    quiet.writer = None  # another rank of a multi-GPU run
+    quiet.process_env_step(torch.ones(NUM_ENVS), torch.ones(NUM_ENVS, dtype=torch.long), {"log": {}})
+    quiet.flush_ended_episodes()
+    assert not quiet.rewbuffer and quiet.steps_held == 0
+
+
+def test_the_training_runners_and_progress_loggers_are_sync_free():
+    assert issubclass(PlainLogger, SyncFreeLogger) and issubclass(ProgressLogger, SyncFreeLogger)
+    assert "SyncFreeLogger" in CheckpointingRunner.__init__.__code__.co_names
+
+
+class ConstantEnv:
+    """The least a wrapper needs: an env whose observations or rewards can be made NaN."""
+
+    def __init__(self):
+        self.num_envs, self.max_episode_length, self.device, self.cfg = 2, 10, "cpu", None
+        self.action_manager = type("Actions", (), {"total_action_dim": 1})()
+        self.obs = TensorDict({"policy": torch.zeros(2, 3), "critic": torch.zeros(2, 4)}, batch_size=[2])
+        self.reward = torch.zeros(2)
+
+    def step(self, actions):
+        no = torch.zeros(2, dtype=torch.bool)
+        return self.obs.clone(), self.reward.clone(), no, no, {"log": {}}
+
+
+def test_the_deferred_nan_check_reports_once_per_rollout_naming_the_source():
+    train_cfg = {"num_steps_per_env": 4, "check_for_nan": True}
+    every = defer_nan_check(train_cfg)
+    assert every == 4 and train_cfg["check_for_nan"] is False  # rsl-rl's per-step check off, the wrapper's on
+    env = ConstantEnv()
+    wrapped = RslRlVecEnvWrapper(env, every)
+    for _ in range(4):
+        wrapped.step(torch.zeros(2, 1))
+    env.obs["critic"][1, 2] = float("nan")
+    wrapped.step(torch.zeros(2, 1))  # seen, not yet reported: no host sync mid-rollout
+    env.obs["critic"][1, 2] = 0.0
+    wrapped.step(torch.zeros(2, 1))
+    wrapped.step(torch.zeros(2, 1))
+    with pytest.raises(ValueError, match=r"the observation group 'critic' returned by the environment contained "
+                                         r"NaN values within the last 4 steps"):
+        wrapped.step(torch.zeros(2, 1))
+    env.reward[0] = float("nan")
+    with pytest.raises(ValueError, match=r"^the rewards returned"):
+        for _ in range(4):
+            wrapped.step(torch.zeros(2, 1))
+
+
+def test_a_config_without_the_nan_check_has_none():
+    train_cfg = {"num_steps_per_env": 4, "check_for_nan": False}
+    assert defer_nan_check(train_cfg) == 0
+    env = ConstantEnv()
+    env.reward[0] = float("nan")
+    wrapped = RslRlVecEnvWrapper(env, 0)
+    for _ in range(8):
+        wrapped.step(torch.zeros(2, 1))
+    with pytest.raises(ValueError, match="nan_check_every_steps must be >= 0"):
+        RslRlVecEnvWrapper(env, -1)
