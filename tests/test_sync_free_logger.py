@@ -101,3 +101,24 @@ def test_a_config_without_the_nan_check_has_none():
         wrapped.step(torch.zeros(2, 1))
     with pytest.raises(ValueError, match="nan_check_every_steps must be >= 0"):
         RslRlVecEnvWrapper(env, -1)
+
+
+def test_the_episode_extras_are_averaged_over_the_steps_as_rsl_rl_averages_them():
+    generator = torch.Generator().manual_seed(1)
+    steps = [{"Episode_Reward/a": torch.randn((), generator=generator), "Metrics/b": torch.rand((), generator=generator)}
+             for _ in range(24)]
+    sync_free = logger(SyncFreeLogger, 24)
+    sync_free.ep_extras = list(steps)
+    sync_free.average_episode_extras()
+    assert len(sync_free.ep_extras) == 1
+    for key in steps[0]:  # rsl-rl: the mean of every step's value of the key
+        expected = torch.cat([step[key].unsqueeze(0) for step in steps]).mean()
+        assert torch.allclose(sync_free.ep_extras[0][key], expected.unsqueeze(0), atol=1e-6)
+    mixed = [{"a": torch.tensor(1.0)}, {"a": torch.tensor(2.0), "b": torch.tensor(3.0)}]  # keys differ: left as is
+    sync_free.ep_extras = list(mixed)
+    sync_free.average_episode_extras()
+    assert sync_free.ep_extras == mixed
+    floats = [{"a": 1.0}, {"a": 2.0}]  # not tensors: rsl-rl's log converts them itself
+    sync_free.ep_extras = list(floats)
+    sync_free.average_episode_extras()
+    assert sync_free.ep_extras == floats

@@ -6,7 +6,8 @@ policy's next inference, so the GPU idles while Python launches the policy's and
 rollout's host launches are otherwise hidden behind the previous env step's graph). `SyncFreeLogger` writes each
 step's finished episodes into device buffers (one row per step of the rollout) and moves them to the host once per
 iteration, when it logs: the same returns and lengths, in the same order (step by step, env by env), in the same
-100-episode windows (`rewbuffer`, `lenbuffer`) that rsl-rl's report and tensorboard read.
+100-episode windows (`rewbuffer`, `lenbuffer`) that rsl-rl's report and tensorboard read. The episode extras
+(`extras["log"]`) are averaged over the rollout in one reduction before rsl-rl's `log` reads them.
 
 The training runners (`CheckpointingRunner`) use it, and the progress loggers (`agile.rl_env.rsl_rl.progress`)
 build on it. With RND's intrinsic rewards it keeps rsl-rl's per-step bookkeeping (none of our tasks uses RND).
@@ -69,6 +70,23 @@ class SyncFreeLogger(Logger):
         self.lenbuffer.extend(self.ended_length_steps[:self.steps_held][ended].tolist())
         self.steps_held = 0
 
+    def average_episode_extras(self) -> None:
+        """Replace the held steps' extras by their means over the steps, where every step holds the same keys as
+        0-d tensors (the env's `extras["log"]`): rsl-rl's `log` then averages one value per key, the same means,
+        instead of concatenating every step's value of every key one small op at a time (58 keys x 24 steps for
+        G1: ~3,000 launches an iteration, the GPU idle meanwhile)."""
+        extras = self.ep_extras
+        if not extras:
+            return
+        keys = list(extras[0])
+        scalar_tensors = all(isinstance(value, torch.Tensor) and value.dim() == 0 for value in extras[0].values())
+        if not keys or not scalar_tensors or any(list(step) != keys for step in extras):
+            return
+        per_step = torch.stack([torch.stack([value.float() for value in step.values()]) for step in extras])
+        self.ep_extras = [dict(zip(keys, per_step.mean(dim=0).unsqueeze(1)))]
+
     def log(self, **kwargs) -> None:
         self.flush_ended_episodes()
+        if self.writer is not None:
+            self.average_episode_extras()
         super().log(**kwargs)
