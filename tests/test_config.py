@@ -192,3 +192,16 @@ def test_inference_cfg_removes_exactly_the_training_only_action_terms():
     assert removed_by_task["HeightTracking-G1-v0"] == ["lift"]
     assert "harness" in removed_by_task["Velocity-Height-G1-Teacher-v0"]
     assert removed_by_task["Velocity-T1-v0"] == []
+
+
+def test_registering_the_tasks_imports_no_simulator():
+    """`import agile.tasks` registers every task by entry-point strings: a fresh interpreter answers `agile list`'s
+    registry questions without importing Newton, Warp or the env (they cost ~7 s)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, agile.tasks; heavy = sorted(m for m in ('newton', 'warp', 'agile.rl_env.env', 'agile.sim') "
+            "if m in sys.modules); print(len(agile.tasks.registered_tasks())); assert not heavy, heavy")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert int(result.stdout.split()[-1]) > 10

@@ -189,6 +189,7 @@ def main(argv=None) -> None:
     import agile.tasks
     from agile.run.lerobot_dataset import LeRobotDatasetWriter
     from agile.run.policy import inference_cfg
+    from agile.utils.config import load_entry_point
 
     try:
         spec = agile.tasks.task_spec(args.task)
@@ -205,6 +206,9 @@ def main(argv=None) -> None:
     env_cfg, agent_cfg, device = cli.load_task(args)
     env = cli.make_env(args.task, inference_cfg(env_cfg), device, use_cache=not args.no_cache)
     palettes = None if args.fixed_colors else spec.kwargs.get("color_palettes")
+    if palettes:  # registered as "module:attribute" entry points (registering imports no simulator code)
+        palettes = {name: load_entry_point(colors) if isinstance(colors, str) else colors
+                    for name, colors in palettes.items()}
     try:
         state, videos, action = recording_layout(env)
         if palettes:

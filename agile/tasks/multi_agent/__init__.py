@@ -1,7 +1,7 @@
 """Multi-agent tasks: several robots at their own control rates in one world (`kind: multi_agent`)."""
 
 from agile.tasks.registration import MULTI_AGENT_ENV, register_task
-from agile.tasks.velocity.velocity_common import RANDOMISATION_EVENTS
+from agile.tasks.velocity import RANDOMISATION_EVENTS
 
 FLAT_NO_RANDOMISATION = ("env.scene.terrain=null", "env.curriculum.terrain_levels=null", "env.scene.ground_friction=1.0",
                          *(f"env.events.{name}=null" for name in RANDOMISATION_EVENTS))

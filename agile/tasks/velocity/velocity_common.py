@@ -279,7 +279,3 @@ def velocity_curriculum_cfg(action_rate_final: float, action_rate_rate_final: fl
                                           "num_steps": 100_000, "terminal_weight": action_rate_rate_final}))
 
 
-RANDOMISATION_EVENTS = ("physics_material", "actuator_gains", "upper_body_actuator_gains", "joint_friction",
-                        "joint_armature", "body_mass", "base_mass", "body_com", "base_com", "base_external_wrench",
-                        "extremities_external_wrench")
-"""The startup domain randomisation and the random wrenches of `VelocityEventsCfg` (pushes and resets stay)."""

@@ -1,7 +1,6 @@
 """PickPlace-G1-v0 (AGILE FEB26: G1-PickPlace-Tracking-v0; both IDs registered), its debug variant and its recording
 variant."""
 
-from agile.assets.tabletop import CUBE_PALETTE_RGB, TABLE_PALETTE_RGB
 from agile.tasks.registration import register_task
 
 # issue 42's figures: 256 envs x 8 s, upper-body joint error < 0.1 rad, the cube lifted in > 80% of episodes and at
@@ -20,4 +19,5 @@ register_task("PickPlace-G1-Record-v0", f"{__name__}.pick_place_record_env_cfg:p
               f"{__name__}.agents.rsl_rl_cfg:g1_pick_place_ppo_runner_cfg", kind="record",
               shipped_policy="PickPlace-G1-v0", robot_type="unitree_g1_dex3",
               task_description="pick up the cube and put it down at the goal",
-              color_palettes={"table": TABLE_PALETTE_RGB, "object": CUBE_PALETTE_RGB})
+              color_palettes={"table": "agile.assets.tabletop:TABLE_PALETTE_RGB",
+                              "object": "agile.assets.tabletop:CUBE_PALETTE_RGB"})
