@@ -80,9 +80,15 @@ def test_command_range_shares_and_settle_time(env_and_agent):
     # 30% stand (the top), 20% lie (the bottom), the rest uniform in between: 6000 draws, ±3 standard errors
     assert (draws == high_m).float().mean().item() == pytest.approx(0.3, abs=0.02)
     assert (draws == low_m).float().mean().item() == pytest.approx(0.2, abs=0.02)
-    # instant jumps: the command reaches the draw at the next update
+    # ramps at 0.1-2 m/s (AGILE jumps): each update moves the command by at most speed x 0.02 s towards the draw
+    assert command.cfg.ramp_speed_range_mps == pytest.approx((0.1, 2.0))
+    speeds = command.ramp_speed_mps
+    assert ((speeds >= 0.1) & (speeds <= 2.0)).all()
+    before = command.target_height_m.clone()
     command._update_command()
-    assert torch.allclose(command.target_height_m, command.drawn_height_m, atol=1e-6)
+    moved = (command.target_height_m - before).abs()
+    gap_before = (command.drawn_height_m - before).abs()
+    assert torch.allclose(moved, torch.minimum(gap_before, speeds * env.step_dt), atol=1e-6)
     # settle: 2 s = 100 env steps after a resampling before tracking counts
     assert command.settle_steps == 100
     command.steps_since_resample.fill_(100)

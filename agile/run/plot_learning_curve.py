@@ -107,6 +107,7 @@ def main(argv=None) -> None:
         cli.fail("plotting needs matplotlib, an optional extra: pip install -e \".[plot]\"")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     scalars = {label: read_run(files) for label, files in runs}
     first = scalars[runs[0][0]]
@@ -121,6 +122,7 @@ def main(argv=None) -> None:
                 continue
             ax.plot(*run_scalars[tag], label=label)
         ax.set_xlabel("iteration")
+        ax.xaxis.set_major_locator(MaxNLocator(5, integer=True))  # five-digit iterations stay apart
         ax.set_ylabel(AXIS_LABELS.get(tag, tag))
     if not any(ax.lines for ax in axes[0]):
         cli.fail(f"no run logged {tags}; the first run's scalars: {sorted(first)}")
