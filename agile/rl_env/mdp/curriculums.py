@@ -10,7 +10,7 @@ from agile.rl_env.managers import ManagerTermBase
 
 
 __all__ = ["EpisodeOutcomeCounter", "OUTCOME_STATE_ATTRS", "pushing_curriculum", "remove_harness",
-           "terrain_levels_vel", "update_reward_weight_step"]
+           "terrain_levels_vel", "update_reward_weight_step", "velocity_command_levels"]
 
 class EpisodeOutcomeCounter:
     """AGILE's terrain-row rule, shared by the terrain curricula: per env, the successful and failed episodes since
@@ -125,6 +125,71 @@ class terrain_levels_vel(ManagerTermBase):  # noqa: N801 (Isaac Lab's name)
         env.sim.update_terrain_levels(move_up, move_down)
         self.restart.copy_(env_mask)
         return env.sim.terrain_levels.float().mean()
+
+
+class velocity_command_levels(ManagerTermBase):  # noqa: N801 (curriculum terms are named as functions)
+    """Velocity command ranges that widen as the robot learns to track them (legged_gym's command curriculum,
+    Isaac Lab's `command_levels_vel`; not AGILE's, and off unless `start_fraction` < 1). Every range of the
+    command term starts at `start_fraction` of its configured one and widens by `step_fraction` of it (up to all of
+    it) at each checked step (every `interval_steps` env steps) where the episodes ending then tracked every reward
+    of `reward_names` well: the mean over those episodes of the term's episode sum / (its weight x the episode's
+    seconds), i.e. the mean value of its tracking kernel in (0, 1], above `threshold`. Why: AGILE's tracking kernels
+    are narrow (std 0.2), so a policy that does not yet turn scores ~0 on most yaw commands of +-1 rad/s and gets
+    little gradient from them. Device tensors only (runs inside a captured step). Returns the fraction."""
+
+    training_state_attrs = ("fraction",)  # restored on resume (ManagerTermBase)
+
+    def __init__(self, cfg, env):
+        super().__init__(cfg, env)
+        params = cfg.params
+        start = float(params.get("start_fraction", 1.0))
+        checks = {"start_fraction": (start, 0.0 < start <= 1.0, "within (0, 1]"),
+                  "step_fraction": (params.get("step_fraction", 0.1), params.get("step_fraction", 0.1) > 0.0, "> 0"),
+                  "threshold": (params.get("threshold", 0.5), 0.0 < params.get("threshold", 0.5) < 1.0,
+                                "within (0, 1)"),
+                  "interval_steps": (params.get("interval_steps", 1000), params.get("interval_steps", 1000) >= 1,
+                                     ">= 1")}
+        for name, (value, ok, rule) in checks.items():
+            if not ok:
+                raise ValueError(f"velocity_command_levels: {name} must be {rule}, got {value}")
+        for name in params["reward_names"]:
+            if name not in env.reward_manager.weights:
+                raise ValueError(f"velocity_command_levels: no reward term '{name}' with a non-zero weight; terms: "
+                                 f"{sorted(env.reward_manager.weights)}")
+        command_name = params.get("command_name", "base_velocity")
+        self.command = env.command_manager.get_term(command_name)
+        if not (isinstance(getattr(self.command, "low", None), torch.Tensor)
+                and isinstance(getattr(self.command, "high", None), torch.Tensor)):
+            raise ValueError(f"velocity_command_levels: command '{command_name}' ({type(self.command).__name__}) "
+                             f"draws from no `low` / `high` range tensors (UniformNullVelocityCommand does)")
+        self.full_low, self.full_high = self.command.low.clone(), self.command.high.clone()
+        self.fraction = torch.full((), start, device=env.device)
+        self.active = start < 1.0
+        """Off (start_fraction 1): no kernel at all, the configured ranges untouched."""
+        self.set_ranges()
+
+    def set_ranges(self) -> None:
+        self.command.low.copy_(self.full_low * self.fraction)
+        self.command.high.copy_(self.full_high * self.fraction)
+
+    def __call__(self, env, env_mask, reward_names: list[str], command_name: str = "base_velocity",
+                 start_fraction: float = 1.0, step_fraction: float = 0.1, threshold: float = 0.5,
+                 interval_steps: int = 1000) -> torch.Tensor:
+        if not self.active:
+            return self.fraction
+        rewards = env.reward_manager
+        length_s = env.episode_length_buf.float().clamp(min=1.0) * env.step_dt
+        ended = env_mask.float()
+        count = ended.sum()
+        tracked = count > 0
+        for name in reward_names:
+            kernel_mean = rewards.episode_sums[name] / (rewards.weights[name] * length_s)
+            tracked = tracked & ((kernel_mean * ended).sum() > threshold * count)
+        checked = torch.remainder(env.common_step_counter, interval_steps) == 0
+        widened = (self.fraction + step_fraction).clamp(max=1.0)
+        self.fraction.copy_(torch.where(checked & tracked, widened, self.fraction))
+        self.set_ranges()  # also after a resume restored the fraction
+        return self.fraction
 
 
 def remove_harness(env, env_mask, harness_action_name: str, start_step: int, num_steps: int) -> torch.Tensor:

@@ -262,11 +262,13 @@ class VelocityCurriculumCfg:
     terrain_levels: CurrTerm | None = None
     action_rate: CurrTerm | None = None
     action_rate_rate: CurrTerm | None = None
+    command_levels: CurrTerm | None = None
 
 
 def velocity_curriculum_cfg(action_rate_final: float, action_rate_rate_final: float) -> VelocityCurriculumCfg:
     """Terrain rows by distance walked (up after 4 episodes beyond 4 m, down after 10 short of 2 m); the
-    action-rate penalties ramp from 50k (and 60k) env steps over 100k steps to their final weights."""
+    action-rate penalties ramp from 50k (and 60k) env steps over 100k steps to their final weights. The command-range
+    curriculum (not AGILE's) is off: `env.curriculum.command_levels.params.start_fraction=0.3` turns it on."""
     return VelocityCurriculumCfg(
         terrain_levels=CurrTerm(func=mdp.terrain_levels_vel,
                                 params={"command_name": "base_velocity", "move_up_distance_m": 4.0,
@@ -276,6 +278,10 @@ def velocity_curriculum_cfg(action_rate_final: float, action_rate_rate_final: fl
                                      "terminal_weight": action_rate_final}),
         action_rate_rate=CurrTerm(func=mdp.update_reward_weight_step,
                                   params={"reward_name": "action_rate_rate", "start_step": 60_000,
-                                          "num_steps": 100_000, "terminal_weight": action_rate_rate_final}))
+                                          "num_steps": 100_000, "terminal_weight": action_rate_rate_final}),
+        command_levels=CurrTerm(func=mdp.velocity_command_levels,
+                                params={"reward_names": ["track_lin_vel_xy_exp", "track_ang_vel"],
+                                        "start_fraction": 1.0, "step_fraction": 0.1, "threshold": 0.5,
+                                        "interval_steps": 1000}))
 
 
