@@ -151,10 +151,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     import torch
 
     from agile.rl_env import ManagerBasedRLEnv
-    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
-    from agile.rl_env.rsl_rl.checkpoints import runner_class
-    from agile.rl_env.rsl_rl.runner_cfg import set_matmul_precision
-    from agile.rl_env.rsl_rl.vecenv_wrapper import defer_nan_check
+    from agile.rl_env.rsl_rl.checkpoints import training_runner
 
     flat_raw = flat_raw_physics(env_cfg, device, steps) if env_cfg.scene.terrain is not None else None
     start = time.perf_counter()
@@ -189,11 +186,8 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
         env.sim, lambda: env.step(torch.rand_like(actions[0]) * 2 - 1), 20)
 
     agent_cfg.max_iterations = train_iterations
-    train_cfg = to_rsl_rl_dict(agent_cfg)
-    wrapped = RslRlVecEnvWrapper(env, defer_nan_check(train_cfg))
-    set_matmul_precision(agent_cfg)
     with tempfile.TemporaryDirectory() as log_dir, cli.quiet_stdout():
-        runner = runner_class(agent_cfg)(wrapped, train_cfg, log_dir=log_dir, device=str(env.device))
+        runner = training_runner(env, agent_cfg, log_dir)
         runner.learn(1)  # warm-up: allocations, first update
         synchronize(env.device)
         start = time.perf_counter()
@@ -201,7 +195,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
         synchronize(env.device)
         iteration_s = (time.perf_counter() - start) / train_iterations
     train = n * agent_cfg.num_steps_per_env / iteration_s
-    phases = time_training_phases(runner, wrapped, train_iterations)
+    phases = time_training_phases(runner, runner.env, train_iterations)
     memory = device_memory_used_gb(env.device)
     # the demand on the solver's fixed buffers over everything above (random actions, falls, training)
     capacity = env.sim.capacity

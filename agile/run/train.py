@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import os
 import sys
+from functools import partial
 
 from agile.run import common as cli
 
@@ -306,10 +307,7 @@ def main(argv=None) -> None:
             cli.fail(f"--inject_nan_actions SHARE EVERY: SHARE within (0, 1], EVERY a whole number >= 1; got "
                      f"{share:g} {every:g}")
 
-    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
-    from agile.rl_env.rsl_rl.checkpoints import restore_runner, runner_class
-    from agile.rl_env.rsl_rl.vecenv_wrapper import defer_nan_check
-    from agile.rl_env.rsl_rl.runner_cfg import set_matmul_precision
+    from agile.rl_env.rsl_rl.checkpoints import restore_runner, training_runner
     from agile.rl_env.rsl_rl.progress import show_progress
     from agile.rl_env.rsl_rl.distillation import load_teacher
 
@@ -320,18 +318,15 @@ def main(argv=None) -> None:
     if rank is None or rank.is_main:
         log_dir = cli.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
         cli.dump_configs(log_dir, env_cfg, agent_cfg)
-    train_cfg = to_rsl_rl_dict(agent_cfg)
-    nan_check_every_steps = defer_nan_check(train_cfg)
-    if args.inject_nan_actions is None:
-        wrapped = RslRlVecEnvWrapper(env, nan_check_every_steps)
-    else:
+    wrap = None
+    if args.inject_nan_actions is not None:
         from agile.rl_env.rsl_rl.fault_injection import NanActionVecEnv
 
         share, every = args.inject_nan_actions
-        wrapped = NanActionVecEnv(env, share, int(every), agent_cfg.num_steps_per_env, nan_check_every_steps)
-    set_matmul_precision(agent_cfg)
+        wrap = partial(NanActionVecEnv, share=share, every_iterations=int(every),
+                       steps_per_iteration=agent_cfg.num_steps_per_env)
     with cli.quiet_stdout():
-        runner = runner_class(agent_cfg)(wrapped, train_cfg, log_dir=log_dir, device=str(env.device))
+        runner = training_runner(env, agent_cfg, log_dir, wrap)
     runner.logger.git_status_repos = cli.git_repos()
     if log_dir is not None:
         show_progress(runner, args.progress, args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)

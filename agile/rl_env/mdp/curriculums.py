@@ -143,13 +143,12 @@ class velocity_command_levels(ManagerTermBase):  # noqa: N801 (curriculum terms 
         super().__init__(cfg, env)
         params = cfg.params
         start = float(params.get("start_fraction", 1.0))
-        checks = {"start_fraction": (start, 0.0 < start <= 1.0, "within (0, 1]"),
-                  "step_fraction": (params.get("step_fraction", 0.1), params.get("step_fraction", 0.1) > 0.0, "> 0"),
-                  "threshold": (params.get("threshold", 0.5), 0.0 < params.get("threshold", 0.5) < 1.0,
-                                "within (0, 1)"),
-                  "interval_steps": (params.get("interval_steps", 1000), params.get("interval_steps", 1000) >= 1,
-                                     ">= 1")}
-        for name, (value, ok, rule) in checks.items():
+        step, threshold = params.get("step_fraction", 0.1), params.get("threshold", 0.5)
+        interval = params.get("interval_steps", 1000)
+        for name, value, ok, rule in (("start_fraction", start, 0.0 < start <= 1.0, "within (0, 1]"),
+                                      ("step_fraction", step, step > 0.0, "> 0"),
+                                      ("threshold", threshold, 0.0 < threshold < 1.0, "within (0, 1)"),
+                                      ("interval_steps", interval, interval >= 1, ">= 1")):
             if not ok:
                 raise ValueError(f"velocity_command_levels: {name} must be {rule}, got {value}")
         for name in params["reward_names"]:

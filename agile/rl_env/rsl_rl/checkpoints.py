@@ -110,6 +110,19 @@ class CheckpointingDistillationRunner(CheckpointingRunner, DistillationRunner):
     """The same for distillation (rsl-rl's DistillationRunner refuses to learn before a teacher is loaded)."""
 
 
+def training_runner(env, agent_cfg, log_dir: str | None, wrap=None) -> CheckpointingRunner:
+    """The runner `agile train` trains with (and `agile benchmark` times): the checkpointing runner of the agent
+    config over `wrap(env, nan_check_every_steps)` (default `RslRlVecEnvWrapper`), rsl-rl's per-step NaN check moved
+    into the wrapper (`defer_nan_check`), the config's matmul precision set for the process."""
+    from agile.rl_env.rsl_rl.runner_cfg import set_matmul_precision, to_rsl_rl_dict
+    from agile.rl_env.rsl_rl.vecenv_wrapper import RslRlVecEnvWrapper, defer_nan_check
+
+    train_cfg = to_rsl_rl_dict(agent_cfg)
+    wrapped = (wrap or RslRlVecEnvWrapper)(env, defer_nan_check(train_cfg))
+    set_matmul_precision(agent_cfg)
+    return runner_class(agent_cfg)(wrapped, train_cfg, log_dir=log_dir, device=str(env.device))
+
+
 def runner_class(agent_cfg) -> type[CheckpointingRunner]:
     """The checkpointing runner for a PPO or a distillation agent config."""
     from agile.rl_env.rsl_rl.runner_cfg import is_distillation

@@ -14,8 +14,8 @@ from agile.rl_env.rsl_rl.vecenv_wrapper import RslRlVecEnvWrapper
 
 
 class NanActionVecEnv(RslRlVecEnvWrapper):
-    def __init__(self, env, share: float, every_iterations: int, steps_per_iteration: int,
-                 nan_check_every_steps: int = 0):
+    def __init__(self, env, nan_check_every_steps: int = 0, *, share: float, every_iterations: int,
+                 steps_per_iteration: int):
         super().__init__(env, nan_check_every_steps)
         if not 0.0 < share <= 1.0:
             raise ValueError(f"NaN action share must be within (0, 1], got {share}")
