@@ -10,7 +10,8 @@ from agile.utils.config import ConfigError, configclass, to_dict
 
 @configclass
 class DistributionCfg:
-    class_name: str = "GaussianDistribution"
+    class_name: str = "agile.rl_env.rsl_rl.distribution:SyncFreeGaussianDistribution"
+    """rsl-rl's GaussianDistribution, sampled without a host synchronisation (the same draws)."""
     init_std: float = 1.0
     std_type: str = "scalar"
 
