@@ -142,6 +142,17 @@ def test_train_writes_checkpoint_logs_and_configs_then_resumes(trained_run):
     assert int(last["infos"]["env_state"]["common_step_counter"]) == (resumed + 1 + 2) * 4
 
 
+def test_resuming_into_another_env_is_one_line_naming_the_checkpoint(trained_run):
+    """A checkpoint trained on a terrain resumed on flat ground (no terrain curriculum to take its state)."""
+    run_dir, args = trained_run
+    checkpoint = str(run_dir / "model_1.pt")
+    code, out, err = run_split(*args[:-1], "--resume", "--checkpoint", checkpoint, "agent.num_steps_per_env=4",
+                               *FLAT_GROUND_ARGS)
+    assert code == 2, (out, err)
+    assert len(err.strip().splitlines()) == 1 and err.startswith(f"error: --checkpoint {checkpoint}: "), err
+    assert "terrain_levels" in err, err
+
+
 def test_train_with_injected_nan_actions_logs_the_envs_it_ended(tmp_path):
     """The fault injection of the GPU reliability run, on CPU: NaN actions in half of the envs at the start of
     every iteration after the first; the log of that iteration counts them, the first one's does not."""

@@ -335,7 +335,10 @@ def main(argv=None) -> None:
         restore_runner(runner, resume_contents)  # loaded on the CPU: a GPU run can be resumed on another device
         env_state = (resume_contents.get("infos") or {}).get("env_state")
         if env_state is not None:  # step counter (reward-weight ramps) and terrain levels
-            env.load_training_state(env_state)
+            try:
+                env.load_training_state(env_state)
+            except ValueError as err:  # a checkpoint of another env (terrain, curriculum terms, env count)
+                cli.fail(f"--checkpoint {resume_path}: {err}")
         else:
             print("[agile] the checkpoint holds no env state (an older checkpoint): curricula start over")
         print(f"[agile] continuing at iteration {runner.current_learning_iteration}")
