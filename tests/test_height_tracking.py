@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import io
+import types
 from pathlib import Path
 
 import pytest
@@ -111,6 +112,7 @@ def test_the_command_error_eval_bins_is_the_metrics_error_on_the_steps_it_counts
     sample = command.command_error()
     assert (sample.error_name, sample.command_name) == ("height_error_m", "height_m")
     torch.testing.assert_close(sample.error, (command.measured_height_m - command.target_height_m).abs())
+    torch.testing.assert_close(sample.measured, command.measured_height_m)
     assert sample.counted.tolist() == [True, False, False]
     by_height = ErrorByCommand(sample.bin_edges, "cpu")
     by_height.add(sample.commanded, sample.error, sample.counted.float())
@@ -155,6 +157,43 @@ def test_eval_reports_the_height_error_by_commanded_height(env_and_agent):
     steps = sum(row["steps"] for row in rows)
     mean = sum(row["error"] * row["steps"] for row in rows) / steps
     assert 0.0 <= mean < 2.0
+    env.reset()
+
+
+def test_sweep_command_holds_one_height_per_env_and_reports_where_each_settles(env_and_agent, capsys):
+    from agile.run.command_sweep import command_sweep, swept_command, sweep_table
+
+    env, _ = env_and_agent
+    term = env.command_manager.get_term("height")
+    num_actions = env.action_manager.total_action_dim
+    full_length = env.max_episode_length
+    env.max_episode_length = 100  # 2 s episodes, the reached height counted from 1 s
+    try:
+        rows = command_sweep(env, lambda obs: torch.zeros(env.num_envs, num_actions), 1, [0.3, 0.8, 0.5],
+                             settled_after_s=1.0)
+        held = term.command[:, 0].tolist()
+    finally:
+        env.max_episode_length = full_length
+        term.set_fixed_command(None)
+    assert held == pytest.approx([0.3, 0.8, 0.5])  # env i holds value i mod 3, whatever the timers drew
+    assert [row["command"] for row in rows] == [0.3, 0.8, 0.5] and all(row["num_envs"] == 1 for row in rows)
+    for row in rows:
+        (reached,) = row["reached_height_m_per_env"]
+        assert row["mean_signed_error_height_m"] == pytest.approx(reached - row["command"], abs=1e-3)
+        assert row["mean_abs_error_height_m"] == pytest.approx(abs(reached - row["command"]), abs=1e-3)
+        assert row["reached_height_m_p10_p50_p90"] == pytest.approx([reached] * 3, abs=1e-3)
+        assert row["episodes"] >= 1 and 0.0 <= row["fall_rate"] <= 1.0
+    table = sweep_table(rows)
+    assert table.count("\n") == 1 + len(rows) and "0.800" in table
+    # refused: more values than envs, an episode no longer than the settle time, a task without such a command
+    for values, settled_after_s in (([0.1, 0.2, 0.3, 0.4], 1.0), ([0.3], 30.0)):
+        with pytest.raises(SystemExit):
+            command_sweep(env, lambda obs: torch.zeros(env.num_envs, num_actions), 1, values, settled_after_s)
+    velocity_only = types.SimpleNamespace(command_manager=types.SimpleNamespace(terms={}, active_terms=["velocity"]))
+    with pytest.raises(SystemExit):
+        swept_command(velocity_only)
+    errors = capsys.readouterr().err
+    assert "--sweep_command" in errors and "(commands: ['velocity'])" in errors
     env.reset()
 
 

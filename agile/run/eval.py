@@ -5,6 +5,8 @@
     agile eval --task Velocity-G1-History-v0 --device cpu --num_envs 2 --command 0.5 0 0   # walk
     agile eval --task Velocity-Height-G1-v0 --num_envs 1024 --sweep_lin_vel_x -0.5 0 0.5 \
         --sweep_base_height 0.4 0.56 0.72 --out sweep.json                      # a table and sweep.png
+    agile eval --task HeightTracking-G1-v0 --num_envs 256 --episode_length_s 15 \
+        --sweep_command 0.1 0.3 0.5 0.7 0.92 --out heights.json                # where it settles per height
 
 Each env runs `num_episodes` episodes of `episode_length_s` (pushes off unless --pushes); an env whose episode ends
 early starts another within the window, which is not counted: every env contributes exactly `num_episodes`.
@@ -280,6 +282,19 @@ def run_sweep(args, env, policy, checkpoint: str, device: str) -> None:
         plot_sweep(args.out)
 
 
+def run_command_sweep(args, env, policy, checkpoint: str, device: str) -> None:
+    from agile.run.command_sweep import command_sweep, sweep_table as command_sweep_table
+
+    rows = command_sweep(env, policy, args.num_episodes, args.sweep_command)
+    print(command_sweep_table(rows))
+    if args.out:
+        result = {"task": args.task, "checkpoint": checkpoint, "device": device, "num_envs": env.num_envs,
+                  "episodes_per_env": args.num_episodes, "episode_length_s": args.episode_length_s, "values": rows}
+        with open(args.out, "w") as f:
+            json.dump(result, f, indent=2)
+        print(f"[agile] sweep: {args.out}")
+
+
 def plot_sweep(json_path: str) -> None:
     """The heat map of a sweep's JSON, next to it (.png); where matplotlib is missing, how to make it later."""
     import importlib.util
@@ -311,6 +326,9 @@ def main(argv=None) -> None:
     parser.add_argument("--sweep_base_height", type=float, nargs="+", default=None, metavar="H",
                         help="... times these base heights [m] (tasks with a height command); a table, and with "
                         "--out a heat map next to the JSON (.png)")
+    parser.add_argument("--sweep_command", type=float, nargs="+", default=None, metavar="V",
+                        help="hold each env at one of these values of the task's one-value command that measures its "
+                        "own error (HeightTracking: the height [m]) and report where the robot settles, per value")
     parser.add_argument("--plot_sweep", default=None, metavar="SWEEP.json",
                         help="only draw the heat map of a sweep's JSON (no env, no policy)")
     parser.add_argument("--out", default=None, help="write the metrics as JSON here")
@@ -322,6 +340,8 @@ def main(argv=None) -> None:
     if args.plot_sweep:
         plot_sweep(args.plot_sweep)
         return
+    if args.sweep_command is not None and (args.sweep_lin_vel_x is not None or args.command is not None):
+        cli.fail("--sweep_command holds its own commands: not with --sweep_lin_vel_x or --command")
     if multi_agent.is_multi_agent(args.task):
         multi_agent.eval_main(args)
         return
@@ -354,6 +374,9 @@ def main(argv=None) -> None:
     if args.video:
         recorders.append(VideoRecorder(args.video, env))
     policy = load_policy(contents, env, agent_cfg)
+    if args.sweep_command is not None:
+        run_command_sweep(args, env, policy, checkpoint, device)
+        return
     if args.sweep_lin_vel_x is not None:
         run_sweep(args, env, policy, checkpoint, device)
         return

@@ -60,6 +60,8 @@ class CommandError:
     """(N,) the commanded value."""
     error: torch.Tensor
     """(N,) the error."""
+    measured: torch.Tensor
+    """(N,) the value reached, in the commanded value's unit (what a sweep of fixed commands reports)."""
     counted: torch.Tensor
     """(N,) bool: the steps the error counts on (e.g. settled after a new command)."""
     bin_edges: tuple[float, ...]

@@ -111,9 +111,9 @@ class SmoothHeightCommand(CommandTerm):
 
     def command_error(self) -> CommandError:
         """|measured - commanded| on the steps the `height_error_m` metric counts (settled, a command >= 0)."""
-        return CommandError("height_error_m", "height_m", self.target_height_m,
-                            (self.measured_height_m - self.target_height_m).abs(),
-                            self.settled & (self.target_height_m >= 0.0), HEIGHT_ERROR_BIN_EDGES_M)
+        measured = self.measured_height_m
+        return CommandError("height_error_m", "height_m", self.target_height_m, (measured - self.target_height_m).abs(),
+                            measured, self.settled & (self.target_height_m >= 0.0), HEIGHT_ERROR_BIN_EDGES_M)
 
     def _resample(self, env_mask: torch.Tensor) -> None:
         cfg, n, device = self.cfg, self.env.num_envs, self.env.device
