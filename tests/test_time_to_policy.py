@@ -5,6 +5,7 @@ import json
 
 from commands import FLAT_GROUND_ARGS
 
+from agile.run.recipes import RECIPES
 from agile.run.time_to_policy import main
 
 
@@ -30,7 +31,7 @@ def test_evaluating_after_the_training_reports_the_first_checkpoint_that_meets_t
     out = tmp_path / "after"
     code = main(["--task", "Velocity-T1-v0", "--budget_s", "300", "--max_iterations", "3", "--num_envs", "2",
                  "--device", "cpu", "--save_interval", "1", "--eval_num_envs", "2", "--eval_episode_length_s", "0.2",
-                 "--evaluate_after_training", "--criterion", "fall_rate=1.0", "--out", str(out),
+                 "--evaluate_after_training", "--criterion", "fall_rate=1.0", "--out", str(out), "--recipe", "fast",
                  "agent.num_steps_per_env=2", *FLAT_GROUND_ARGS])
     result = json.loads(out.with_suffix(".json").read_text())
     assert code == 0, capsys.readouterr()
@@ -38,6 +39,9 @@ def test_evaluating_after_the_training_reports_the_first_checkpoint_that_meets_t
     assert first["iteration"] == 0 and first["met"] and result["evaluated"] == "after the training"
     assert result["time_to_policy_s"] == first["wall_s"] < 300
     assert "Learning iteration 2" in (tmp_path / "after.log").read_text()  # it trained on past the first checkpoint
+    # what it trained with is in the JSON: the recipe's overrides, then the given ones
+    assert result["recipe"] == "fast" and result["overrides"][:len(RECIPES["fast"])] == list(RECIPES["fast"])
+    assert result["overrides"][len(RECIPES["fast"])] == "agent.num_steps_per_env=2"
 
 
 def test_a_run_without_an_evaluated_checkpoint_writes_no_curve(tmp_path):

@@ -229,6 +229,7 @@ def main(argv=None) -> None:
                         help="PPO iterations timed for the training rate (after one untimed)")
     parser.add_argument("--out", default=None, help="write the results as JSON here")
     parser.add_argument("overrides", nargs="*", help=cli.OVERRIDE_HELP)
+    cli.add_recipe_arg(parser)
     args = cli.parse(parser, argv)
 
     from agile.run import multi_agent, multi_agent_benchmark
@@ -284,7 +285,8 @@ def main(argv=None) -> None:
                   f"{r['env_step_ratio_to_flat']:>6.2f} {r['train']:>10.0f} {r['train_ratio_to_flat']:>6.2f}")
     if args.out:
         with open(args.out, "w") as f:
-            json.dump({"task": args.task, "device": name, "results": rows}, f, indent=2)
+            json.dump({"task": args.task, "device": name, "recipe": args.recipe, "overrides": list(args.overrides),
+                       "results": rows}, f, indent=2)
 
 
 if __name__ == "__main__":

@@ -47,10 +47,23 @@ def new_parser(description: str) -> argparse.ArgumentParser:
     return argparse.ArgumentParser(description=description, formatter_class=HelpFormatter)
 
 
+def add_recipe_arg(parser: argparse.ArgumentParser) -> None:
+    from agile.run.recipes import RECIPES
+
+    listed = "; ".join(f"{name}: {' '.join(overrides)}" for name, overrides in RECIPES.items())
+    parser.add_argument("--recipe", choices=sorted(RECIPES), default=None,
+                        help=f"runner settings that train faster, as overrides before the ones given ({listed})")
+
+
 def parse(parser: argparse.ArgumentParser, argv=None):
-    """Parse, check the counts (before anything is built), and set how much the libraries print."""
+    """Parse, check the counts (before anything is built), and set how much the libraries print; a --recipe's
+    overrides go before the ones given (which win)."""
     global VERBOSE
     args = parser.parse_args(argv)
+    if getattr(args, "recipe", None) is not None:
+        from agile.run.recipes import RECIPES
+
+        args.overrides = [*RECIPES[args.recipe], *args.overrides]
     for name in ("num_envs", "num_steps", "num_episodes", "max_iterations"):
         values = getattr(args, name, None)
         for value in values if isinstance(values, list) else [values]:  # benchmark.py takes several env counts

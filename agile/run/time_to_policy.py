@@ -163,6 +163,7 @@ def run_until_criteria(args, criteria: dict, minima: dict, device: str, log_root
                 met_at = judge.rows[-1]
                 break
     return {"task": args.task, "gpus": args.gpus, "num_envs_per_gpu": args.num_envs, "budget_s": args.budget_s,
+            "recipe": args.recipe, "overrides": list(args.overrides),  # the recipe's first, then the given ones
             "evaluated": "after the training" if args.evaluate_after_training else f"beside it, on {judge.device}",
             "criteria": criteria, "minima": minima,
             "first_iteration_s": None if first_iteration_s is None else round(first_iteration_s, 1),
@@ -247,6 +248,7 @@ def main(argv=None) -> int:
     parser.add_argument("--out", required=True, help="write <out>.json and <out>.png (the curve)")
     parser.add_argument("--verbose", action="store_true", help="show Warp's kernel loads and library warnings")
     parser.add_argument("overrides", nargs="*", help=cli.OVERRIDE_HELP)
+    cli.add_recipe_arg(parser)
     args = cli.parse(parser, argv)
     if args.gpus < 1 or args.save_interval < 1 or not args.budget_s > 0:
         cli.fail("--gpus and --save_interval must be at least 1 and --budget_s positive")

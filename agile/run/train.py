@@ -214,6 +214,7 @@ def distillation_teacher(args, agent_cfg, resuming: bool) -> str | None:
 def main(argv=None) -> None:
     parser = cli.new_parser(__doc__)
     cli.add_common_args(parser)
+    cli.add_recipe_arg(parser)
     parser.add_argument("--max_iterations", type=int, default=None,
                         help="PPO iterations to run (default: the task's); with --resume, iterations after the "
                              "checkpoint's")
