@@ -109,6 +109,7 @@ def test_a_quiet_run_prints_no_library_noise(tmp_path):
     ("scripts/play.py", "--num_envs", "0"),
     ("scripts/train.py", "--max_iterations", "0"),
     ("scripts/eval.py", "--num_episodes", "-1"),
+    ("scripts/eval.py", "--sweep_command", "0.5", "--command", "0.5", "0", "0"),
 ])
 def test_a_bad_path_or_count_is_one_line_and_exit_code_2_before_the_env_is_built(argv):
     code, out, err = run_split(*argv, "--task", "Velocity-T1-v0", "--device", "cpu", timeout=120)

@@ -270,15 +270,20 @@ def sweep_heat_map(rows: list, path: str, title: str) -> None:
     fig.savefig(path, dpi=120)
 
 
+def write_sweep(args, env, checkpoint: str, device: str, rows_key: str, rows: list) -> None:
+    """A sweep's rows as JSON in --out, with what was evaluated and how."""
+    result = {"task": args.task, "checkpoint": checkpoint, "device": device, "num_envs": env.num_envs,
+              "episodes_per_env": args.num_episodes, "episode_length_s": args.episode_length_s, rows_key: rows}
+    with open(args.out, "w") as f:
+        json.dump(result, f, indent=2)
+    print(f"[agile] sweep: {args.out}")
+
+
 def run_sweep(args, env, policy, checkpoint: str, device: str) -> None:
     rows = sweep(env, policy, args.num_episodes, sweep_cells(args.sweep_lin_vel_x, args.sweep_base_height))
     print(sweep_table(rows))
     if args.out:
-        result = {"task": args.task, "checkpoint": checkpoint, "device": device, "num_envs": env.num_envs,
-                  "episodes_per_env": args.num_episodes, "episode_length_s": args.episode_length_s, "cells": rows}
-        with open(args.out, "w") as f:
-            json.dump(result, f, indent=2)
-        print(f"[agile] sweep: {args.out}")
+        write_sweep(args, env, checkpoint, device, "cells", rows)
         plot_sweep(args.out)
 
 
@@ -288,11 +293,7 @@ def run_command_sweep(args, env, policy, checkpoint: str, device: str) -> None:
     rows = command_sweep(env, policy, args.num_episodes, args.sweep_command)
     print(command_sweep_table(rows))
     if args.out:
-        result = {"task": args.task, "checkpoint": checkpoint, "device": device, "num_envs": env.num_envs,
-                  "episodes_per_env": args.num_episodes, "episode_length_s": args.episode_length_s, "values": rows}
-        with open(args.out, "w") as f:
-            json.dump(result, f, indent=2)
-        print(f"[agile] sweep: {args.out}")
+        write_sweep(args, env, checkpoint, device, "values", rows)
 
 
 def plot_sweep(json_path: str) -> None:
