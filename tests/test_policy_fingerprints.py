@@ -1,11 +1,14 @@
-"""A shipped policy never gets worse silently: each shipped policy file rolls out on the CPU exactly as its committed
-fingerprint says (agile/run/fingerprint.py). A change that moves one must re-record it in the same commit, with a
-GPU eval showing the policy still passes (docs/eval_report/), and say so in the commit message."""
+"""A shipped policy never gets worse silently: each shipped policy file rolls out on the CPU exactly as one of its
+committed recordings says (one per CPU model; agile/run/fingerprint.py). A change that moves one must re-record it
+in the same commit, with a GPU eval showing the policy still passes (docs/eval_report/), and say so in the commit
+message."""
 
+import numpy as np
 import pytest
 
-from agile.run.fingerprint import (FINGERPRINT_DIR, first_divergence, load, record, require_pinned_numerics,
-                                   shipped_policies)
+from agile.run import fingerprint
+from agile.run.fingerprint import (FINGERPRINT_DIR, check, first_divergence, load, mismatch_report, record,
+                                   require_pinned_numerics, shipped_policies, this_cpu)
 
 POLICIES = shipped_policies()
 T1 = next(p for p in POLICIES if p.file.name == "Velocity-T1-v0.pt")
@@ -17,8 +20,11 @@ INJECTED_STEPS = 10
 
 @pytest.fixture(scope="module")
 def t1_fingerprint():
-    """The T1 fingerprint's first `INJECTED_STEPS` steps (and the observations after the reset)."""
-    return {name: values[:INJECTED_STEPS + 1] for name, values in load(T1.fingerprint_file).items()}
+    """The T1 fingerprint's first `INJECTED_STEPS` steps (and the observations after the reset), this CPU's recording
+    where there is one: the CPUs' recordings part only from step 1 on, by about 1e-6."""
+    recordings = T1.recordings()
+    file = recordings.get(this_cpu(), next(iter(recordings.values())))
+    return {name: values[:INJECTED_STEPS + 1] for name, values in load(file).items()}
 
 
 def injected(*overrides: str) -> dict:
@@ -28,20 +34,79 @@ def injected(*overrides: str) -> dict:
 
 @pytest.mark.parametrize("policy", POLICIES, ids=[p.file.name for p in POLICIES])
 def test_a_shipped_policy_rolls_out_as_its_fingerprint_says(policy):
-    assert policy.fingerprint_file.is_file(), (
-        f"{policy.file.name} has no fingerprint: python -m agile.run.fingerprint --record {policy.file.name}")
-    divergence = first_divergence(load(policy.fingerprint_file), record(policy))
-    assert divergence is None, (
-        f"{policy.file.name} no longer rolls out as recorded: {divergence}. If the change is meant, re-record "
-        f"(python -m agile.run.fingerprint --record {policy.file.name}) in the same commit, with a GPU eval "
-        "(scripts/eval_all.py) showing that the policy still passes its criteria, and say so in the commit message")
+    matched, divergences = check(policy, record(policy))
+    assert matched is not None, mismatch_report(policy, divergences)
 
 
 def test_every_fingerprint_belongs_to_a_shipped_policy():
-    shipped = {p.fingerprint_file.name for p in POLICIES}
+    shipped = {f"{p.file.stem}.npz" for p in POLICIES}
     assert shipped  # the package ships policies
-    stale = sorted(f.name for f in FINGERPRINT_DIR.glob("*.npz") if f.name not in shipped)
+    files = sorted(FINGERPRINT_DIR.rglob("*.npz"))
+    stale = [str(f.relative_to(FINGERPRINT_DIR)) for f in files if f.name not in shipped]
     assert not stale, f"fingerprints of policies no longer shipped: {stale}"
+    misplaced = [str(f.relative_to(FINGERPRINT_DIR)) for f in files if f.parent.parent != FINGERPRINT_DIR]
+    assert not misplaced, f"recordings belong in fingerprints/<cpu>/: {misplaced}"
+
+
+def test_this_cpu_names_a_folder():
+    cpu = this_cpu()
+    assert cpu and "/" not in cpu and not cpu.startswith(".")
+    assert cpu == this_cpu()
+
+
+def _fake_recordings(tmp_path, monkeypatch, recordings: dict[str, dict]):
+    """T1's recordings replaced by `recordings` ({cpu: fingerprint}) under tmp_path."""
+    monkeypatch.setattr(fingerprint, "FINGERPRINT_DIR", tmp_path)
+    for cpu, values in recordings.items():
+        fingerprint.save(T1.fingerprint_file(cpu), values)
+    return T1
+
+
+def _shifted(values: dict, step: int, by: float) -> dict:
+    out = {k: v.copy() for k, v in values.items()}
+    out["actions"][step] += by
+    return out
+
+
+def test_a_rollout_passes_when_any_cpus_recording_matches(tmp_path, monkeypatch, t1_fingerprint):
+    other = _shifted(t1_fingerprint, 3, 0.5)
+    policy = _fake_recordings(tmp_path, monkeypatch, {"OtherCPU-family1-model1": other,
+                                                    "SomeCPU-family2-model2": t1_fingerprint})
+    matched, divergences = check(policy, t1_fingerprint)
+    assert matched == "SomeCPU-family2-model2"
+    assert divergences["OtherCPU-family1-model1"].startswith("step 3: actions")
+
+
+def test_a_moved_rollout_on_a_recorded_cpu_is_called_a_change(tmp_path, monkeypatch, t1_fingerprint):
+    policy = _fake_recordings(tmp_path, monkeypatch, {this_cpu(): t1_fingerprint,
+                                                    "OtherCPU-family1-model1": t1_fingerprint})
+    moved = _shifted(t1_fingerprint, 2, 0.5)
+    matched, divergences = check(policy, moved)
+    assert matched is None and list(divergences)[0] == this_cpu()  # this CPU's own recording is compared first
+    report = mismatch_report(policy, divergences)
+    assert f"no longer rolls out as recorded on this CPU ({this_cpu()})" in report
+    assert "step 2: actions" in report and "--record Velocity-T1-v0.pt" in report and "--add_cpu" not in report
+
+
+def test_a_cpu_without_a_recording_is_told_how_to_add_one(tmp_path, monkeypatch, t1_fingerprint):
+    policy = _fake_recordings(tmp_path, monkeypatch, {"OtherCPU-family1-model1": t1_fingerprint})
+    matched, divergences = check(policy, _shifted(t1_fingerprint, 1, 1e-2))
+    assert matched is None
+    report = mismatch_report(policy, divergences)
+    assert f"none was made on this CPU ({this_cpu()})" in report and "--add_cpu Velocity-T1-v0.pt" in report
+
+
+def test_record_replaces_every_cpus_recording_and_add_cpu_keeps_them(tmp_path, monkeypatch, t1_fingerprint):
+    """--record (the rollout moved on purpose) leaves only this CPU's recording; --add_cpu adds it beside the others.
+    The recorder itself is replaced by the T1 fingerprint's first steps (the CLI's file handling is under test)."""
+    policy = _fake_recordings(tmp_path, monkeypatch, {"OtherCPU-family1-model1": t1_fingerprint})
+    monkeypatch.setattr(fingerprint, "record", lambda p: t1_fingerprint)
+    assert fingerprint.main(["--add_cpu", T1.file.name]) == 0
+    assert set(policy.recordings()) == {"OtherCPU-family1-model1", this_cpu()}
+    assert fingerprint.main(["--check", T1.file.name]) == 0
+    assert fingerprint.main(["--record", T1.file.name]) == 0
+    assert set(policy.recordings()) == {this_cpu()}
+    np.testing.assert_array_equal(load(policy.fingerprint_file(this_cpu()))["actions"], t1_fingerprint["actions"])
 
 
 def test_the_check_fails_on_the_action_clamp_that_made_the_t1_regression(t1_fingerprint):

@@ -7,11 +7,16 @@ holds every action, every reward term (weighted, before the step's dt), every te
 observation term its mean and root mean square over the term's entries, per env. `first_divergence` compares two
 and names the first step, quantity and env that differ beyond the tolerance.
 
+The rollouts are chaotic and two CPU models can round one physics step differently (see `this_cpu`), so a
+policy keeps one recording per CPU model it was recorded on, `fingerprints/<cpu>/<policy>.npz`, and its rollout
+must match one of them.
+
 A change that moves a fingerprint is a change to what a shipped policy meets: re-record it in the same commit,
 with a GPU eval showing that the policy still passes its criteria (`agile eval_all`), and say so.
 
-    python -m agile.run.fingerprint --check            # every shipped policy against its committed fingerprint
-    python -m agile.run.fingerprint --record [FILE...] # write them anew (agile/data/policy/fingerprints/)
+    python -m agile.run.fingerprint --check              # every shipped policy against its recordings
+    python -m agile.run.fingerprint --record [FILE...]   # rollout moved on purpose: this CPU's recording only
+    python -m agile.run.fingerprint --add_cpu [FILE...]  # same code, a CPU model without a recording: add one
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ import argparse
 import contextlib
 import dataclasses
 import os
+import platform
 import sys
 from pathlib import Path
 
@@ -40,10 +46,32 @@ fingerprints"); a semantic change (an observation clamped, a reward term reweigh
 
 
 PINNED_CPU_NUMERICS = {"MKL_CBWR": "AVX2", "ATEN_CPU_CAPABILITY": "avx2"}
-"""Environment variables that make torch compute alike on any x86-64 CPU with AVX2, read when torch loads: MKL's
+"""Environment variables that make torch compute alike across x86-64 CPUs with AVX2, read when torch loads: MKL's
 AVX2 and AVX-512 kernels round differently (measured: the T1 fingerprint parts at step 1 between them), and a
 physics step amplifies one rounding into a different solver result. tests/conftest.py and this module's main set
 them before torch is imported."""
+
+def this_cpu() -> str:
+    """The CPU model as a folder name, `<vendor>-family<F>-model<M>` from /proc/cpuinfo (`platform.machine()` and
+    `platform.processor()` where there is none).
+
+    Why recordings are per CPU model: with the numerics pinned, an AMD EPYC (family 26, model 2) still parts from
+    the recordings of the first CPU (an AVX-512 x86-64 CPU; its recordings, made before they named their CPU, are in
+    `unnamed-avx512-cpu/`) at step 1: T1's step-1 actions are identical, the physics step's result differs by
+    2.5e-6 rad/s in base angular velocity, 1.6e-3 two steps later; the same commit, the same wheels. Not the cause,
+    each measured on it: Warp's CPU target, oneDNN's ISA, glibc's CPU-feature tunables, numpy's SIMD dispatch,
+    ATen's capability (docs/policies.md)."""
+    fields = {}
+    with contextlib.suppress(OSError), open("/proc/cpuinfo") as cpuinfo:
+        for line in cpuinfo:
+            key, _, value = line.partition(":")
+            if not line.strip():
+                break  # the first processor's block describes the model
+            fields[key.strip()] = value.strip()
+    if {"vendor_id", "cpu family", "model"} <= fields.keys():
+        return f"{fields['vendor_id']}-family{fields['cpu family']}-model{fields['model']}"
+    name = "-".join(filter(None, (platform.machine(), platform.processor()))) or "unknown"
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
 
 
 class UnpinnedNumericsError(RuntimeError):
@@ -65,9 +93,13 @@ class ShippedPolicy:
     overrides: tuple[str, ...]
     """Config overrides that give the policy's env: its training conditions, the motion it was trained on."""
 
-    @property
-    def fingerprint_file(self) -> Path:
-        return FINGERPRINT_DIR / f"{self.file.stem}.npz"
+    def fingerprint_file(self, cpu: str) -> Path:
+        """The policy's recording made on `cpu` (a `this_cpu()` name; the file may not exist)."""
+        return FINGERPRINT_DIR / cpu / f"{self.file.stem}.npz"
+
+    def recordings(self) -> dict[str, Path]:
+        """{cpu: file} of every recording this policy has."""
+        return {f.parent.name: f for f in sorted(FINGERPRINT_DIR.glob(f"*/{self.file.stem}.npz"))}
 
 
 def shipped_policies() -> list[ShippedPolicy]:
@@ -165,6 +197,7 @@ def _as_array(value, like) -> np.ndarray:
 
 
 def save(path: Path, fingerprint: dict[str, np.ndarray]) -> None:
+    """Write `fingerprint` (float32, compressed) to `path`, creating its CPU folder."""
     path.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(path, **{k: v.astype(np.float32) for k, v in fingerprint.items()})
 
@@ -172,6 +205,37 @@ def save(path: Path, fingerprint: dict[str, np.ndarray]) -> None:
 def load(path: Path) -> dict[str, np.ndarray]:
     with np.load(path) as data:
         return {k: data[k] for k in data.files}
+
+
+def check(policy: ShippedPolicy, actual: dict[str, np.ndarray]) -> tuple[str | None, dict[str, str]]:
+    """(the CPU whose recording `actual` matches, or None; {cpu: first divergence} of those it does not match).
+    This CPU's own recording is compared first."""
+    recordings = policy.recordings()
+    here = this_cpu()
+    divergences = {}
+    for cpu in sorted(recordings, key=lambda c: c != here):
+        divergence = first_divergence(load(recordings[cpu]), actual)
+        if divergence is None:
+            return cpu, divergences
+        divergences[cpu] = divergence
+    return None, divergences
+
+
+def mismatch_report(policy: ShippedPolicy, divergences: dict[str, str]) -> str:
+    """Why a rollout matches none of its recordings, and what to do: a changed rollout when this CPU has a
+    recording, else possibly only another CPU's rounding."""
+    if not divergences:
+        return f"{policy.file.name} has no fingerprint: python -m agile.run.fingerprint --record {policy.file.name}"
+    here = this_cpu()
+    parts = "; ".join(f"recorded on {cpu}: {d}" for cpu, d in divergences.items())
+    fix = (f"If the change is meant, re-record (python -m agile.run.fingerprint --record {policy.file.name}) in "
+           "the same commit, with a GPU eval (agile eval_all) showing that the policy still passes its criteria, "
+           "and say so in the commit message")
+    if here in divergences:
+        return f"{policy.file.name} no longer rolls out as recorded on this CPU ({here}): {parts}. {fix}"
+    return (f"{policy.file.name} matches none of its recordings, and none was made on this CPU ({here}): {parts}. "
+            f"If this commit's parent rolls out the same here, only the CPU differs: add its recording "
+            f"(python -m agile.run.fingerprint --add_cpu {policy.file.name}). {fix}")
 
 
 def first_divergence(expected: dict[str, np.ndarray], actual: dict[str, np.ndarray], rtol: float = RTOL,
@@ -205,8 +269,11 @@ def main(argv=None) -> int:
         os.environ.update(PINNED_CPU_NUMERICS)
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     mode = parser.add_mutually_exclusive_group(required=True)
-    mode.add_argument("--check", action="store_true", help="compare every shipped policy with its fingerprint")
-    mode.add_argument("--record", action="store_true", help="write the fingerprints anew")
+    mode.add_argument("--check", action="store_true", help="compare every shipped policy with its recordings")
+    mode.add_argument("--record", action="store_true",
+                      help="the rollout moved on purpose: record it on this CPU and delete the other CPUs' recordings")
+    mode.add_argument("--add_cpu", action="store_true",
+                      help="the code's rollouts did not move: add this CPU's recording beside the others")
     parser.add_argument("files", nargs="*", help="policy files (names in agile/data/policy/); default: all")
     args = parser.parse_args(argv)
     policies = shipped_policies()
@@ -217,20 +284,22 @@ def main(argv=None) -> int:
             print(f"error: not shipped policies: {unknown}. Shipped: {sorted(by_name)}", file=sys.stderr)
             return 2
         policies = [by_name[Path(f).name] for f in args.files]
+    here = this_cpu()
     failed = 0
     for policy in policies:
         fingerprint = record(policy)
-        if args.record:
-            save(policy.fingerprint_file, fingerprint)
-            print(f"{policy.file.name}: recorded {policy.fingerprint_file}")
+        if args.record or args.add_cpu:
+            stale = [f for cpu, f in policy.recordings().items() if cpu != here] if args.record else []
+            for file in stale:
+                file.unlink()
+            save(policy.fingerprint_file(here), fingerprint)
+            print(f"{policy.file.name}: recorded {policy.fingerprint_file(here)}"
+                  + (f", deleted {len(stale)} other CPUs' recordings" if stale else ""))
             continue
-        if not policy.fingerprint_file.is_file():
-            print(f"{policy.file.name}: no fingerprint ({policy.fingerprint_file})")
-            failed += 1
-            continue
-        divergence = first_divergence(load(policy.fingerprint_file), fingerprint)
-        print(f"{policy.file.name}: {divergence or 'unchanged'}")
-        failed += divergence is not None
+        matched, divergences = check(policy, fingerprint)
+        print(f"{policy.file.name}: unchanged (the recording of {matched})" if matched
+              else mismatch_report(policy, divergences))
+        failed += matched is None
     return 1 if failed else 0
 
 
