@@ -161,16 +161,27 @@ def test_eval_reports_the_height_error_by_commanded_height(env_and_agent):
 
 
 def test_sweep_command_holds_one_height_per_env_and_reports_where_each_settles(env_and_agent, capsys):
-    from agile.run.command_sweep import command_sweep, swept_command, sweep_table
+    from agile.run.command_sweep import command_sweep, reward_terms_table, swept_command, sweep_table
 
     env, _ = env_and_agent
     term = env.command_manager.get_term("height")
     num_actions = env.action_manager.total_action_dim
     full_length = env.max_episode_length
     env.max_episode_length = 100  # 2 s episodes, the reached height counted from 1 s
+    # the reward terms summed apart, from inside the policy: it sees each step's rewards before the next step (the
+    # last step's, a time-out, count nothing: the env has reset and its episode time is 0)
+    reward_sums = {name: torch.zeros(env.num_envs) for name in env.reward_manager.weights}
+    late_steps = torch.zeros(env.num_envs)
+
+    def policy(obs):
+        late = (env.episode_length_buf * env.step_dt >= 1.0).float()
+        for name, reward in env.reward_manager.step_reward.items():
+            reward_sums[name] += reward * late
+        late_steps.add_(late)
+        return torch.zeros(env.num_envs, num_actions)
+
     try:
-        rows = command_sweep(env, lambda obs: torch.zeros(env.num_envs, num_actions), 1, [0.3, 0.8, 0.5],
-                             settled_after_s=1.0)
+        rows = command_sweep(env, policy, 1, [0.3, 0.8, 0.5], settled_after_s=1.0)
         held = term.command[:, 0].tolist()
     finally:
         env.max_episode_length = full_length
@@ -183,8 +194,17 @@ def test_sweep_command_holds_one_height_per_env_and_reports_where_each_settles(e
         assert row["mean_abs_error_height_m"] == pytest.approx(abs(reached - row["command"]), abs=1e-3)
         assert row["reached_height_m_p10_p50_p90"] == pytest.approx([reached] * 3, abs=1e-3)
         assert row["episodes"] >= 1 and 0.0 <= row["fall_rate"] <= 1.0
+    for env_id, row in enumerate(rows):  # env i holds value i: its own reward balance
+        balance = row["reward_per_step"]
+        assert set(balance) == {"total", *env.reward_manager.weights}
+        for name, sums in reward_sums.items():
+            assert balance[name] == pytest.approx(float(sums[env_id] / late_steps[env_id]), rel=1e-3, abs=1e-4), name
+        assert balance["total"] == pytest.approx(sum(v for k, v in balance.items() if k != "total"), abs=1e-3)
+        assert 0.0 < balance["base_height_fine"] <= 16.0  # exp kernel times its weight
     table = sweep_table(rows)
     assert table.count("\n") == 1 + len(rows) and "0.800" in table
+    balance_table = reward_terms_table(rows, num_terms=3)
+    assert balance_table.count("\n") == 1 + len(rows) and balance_table.splitlines()[0].count("|") == 6
     # refused: more values than envs, an episode no longer than the settle time, a task without such a command
     for values, settled_after_s in (([0.1, 0.2, 0.3, 0.4], 1.0), ([0.3], 30.0)):
         with pytest.raises(SystemExit):

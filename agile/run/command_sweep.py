@@ -7,7 +7,9 @@ HeightTracking-G1's height command), one value per env:
 Each env holds one of the values (env i: value i mod values) for all its episodes; the value the command measures
 (the tracked point's height) is averaged per env over its episodes' steps from `settled_after_s` on. Per value: the
 fall rate and episodes, the mean absolute and signed error of those per-env means, their 10/50/90th percentiles and
-every env's (sorted): a policy that holds a few postures rather than the commanded value shows as clusters.
+every env's (sorted): a policy that holds a few postures rather than the commanded value shows as clusters. And the
+reward balance where the envs settle: each reward term's mean per step over the same steps (weighted, before the
+step's dt), so that what a posture earns and what it is charged can be read per value (`reward_terms_table`).
 """
 
 from __future__ import annotations
@@ -31,22 +33,34 @@ def swept_command(env):
 
 
 class SettledValues:
-    """An evaluation recorder: per env, the sum and count of the command's measured value over the steps at or after
-    `after_s` of episode time."""
+    """An evaluation recorder: per env, the sums of the command's measured value and of each reward term, and their
+    count, over the steps at or after `after_s` of episode time."""
 
     def __init__(self, term, env, after_s: float):
         self.term, self.after_s = term, after_s
         self.sum = torch.zeros(env.num_envs, device=env.device)
         self.count = torch.zeros(env.num_envs, device=env.device)
+        self.reward_sums = {name: torch.zeros(env.num_envs, device=env.device) for name in env.reward_manager.weights}
 
     def record(self, env, time_s: float) -> None:
         late = (env.episode_length_buf * env.step_dt >= self.after_s).float()
         self.sum += self.term.command_error().measured * late
         self.count += late
+        for name, reward in env.reward_manager.step_reward.items():
+            self.reward_sums[name] += reward * late
 
     def per_env(self) -> torch.Tensor:
         """(N,) the mean measured value, NaN for an env without a counted step."""
-        return torch.where(self.count > 0, self.sum / self.count.clamp(min=1.0), torch.nan)
+        return self.mean_per_env(self.sum)
+
+    def mean_per_env(self, sums: torch.Tensor) -> torch.Tensor:
+        return torch.where(self.count > 0, sums / self.count.clamp(min=1.0), torch.nan)
+
+    def reward_per_step(self, mask: torch.Tensor) -> dict[str, float]:
+        """{term: its mean per step} over the counted steps of the envs in `mask`; the sum as "total"."""
+        steps = self.count[mask].sum().clamp(min=1.0)
+        per_term = {name: float(sums[mask].sum() / steps) for name, sums in self.reward_sums.items()}
+        return {"total": sum(per_term.values()), **per_term}
 
 
 def command_sweep(env, policy, num_episodes: int, values: list[float],
@@ -80,7 +94,8 @@ def command_sweep(env, policy, num_episodes: int, values: list[float],
             row.update({f"mean_abs_error_{unit_name}": float(error.abs().mean()),
                         f"mean_signed_error_{unit_name}": float(error.mean()),
                         f"reached_{unit_name}_p10_p50_p90": [round(float(p), 4) for p in percentiles],
-                        f"reached_{unit_name}_per_env": [round(float(r), 3) for r in reached]})
+                        f"reached_{unit_name}_per_env": [round(float(r), 3) for r in reached],
+                        "reward_per_step": {k: round(v, 4) for k, v in settled.reward_per_step(mask).items()}})
         rows.append(row)
     print(f"[agile] {name}: the value reached from {settled_after_s:g} s of each episode on, per env")
     return rows
@@ -98,4 +113,21 @@ def sweep_table(rows: list) -> str:
         p10, p50, p90 = row[f"reached_{unit_name}_p10_p50_p90"]
         lines.append(f"| {row['command']:.3f} | {row['fall_rate']:.3f} | {row[f'mean_abs_error_{unit_name}']:.3f} | "
                      f"{row[f'mean_signed_error_{unit_name}']:+.3f} | {p10:.3f} / {p50:.3f} / {p90:.3f} |")
+    return "\n".join(lines)
+
+
+def reward_terms_table(rows: list, num_terms: int = 10) -> str:
+    """The reward balance per value as a Markdown table: the total and the `num_terms` terms whose mean per step
+    varies most across the values (what tells the settled postures apart)."""
+    rows = [row for row in rows if "reward_per_step" in row]
+    if not rows:
+        return ""
+    terms = [name for name in rows[0]["reward_per_step"] if name != "total"]
+    spread = {name: max(r["reward_per_step"][name] for r in rows) - min(r["reward_per_step"][name] for r in rows)
+              for name in terms}
+    shown = ["total", *sorted(terms, key=lambda name: -spread[name])[:num_terms]]
+    lines = ["| commanded | " + " | ".join(shown) + " |", "|---|" + "---|" * len(shown)]
+    for row in rows:
+        lines.append(f"| {row['command']:.3f} | " + " | ".join(f"{row['reward_per_step'][n]:+.3f}" for n in shown)
+                     + " |")
     return "\n".join(lines)

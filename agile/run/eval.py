@@ -288,10 +288,12 @@ def run_sweep(args, env, policy, checkpoint: str, device: str) -> None:
 
 
 def run_command_sweep(args, env, policy, checkpoint: str, device: str) -> None:
-    from agile.run.command_sweep import command_sweep, sweep_table as command_sweep_table
+    from agile.run.command_sweep import command_sweep, reward_terms_table, sweep_table as command_sweep_table
 
     rows = command_sweep(env, policy, args.num_episodes, args.sweep_command)
     print(command_sweep_table(rows))
+    print("reward per step where the envs settle (weighted, before dt):")
+    print(reward_terms_table(rows))
     if args.out:
         write_sweep(args, env, checkpoint, device, "values", rows)
 
