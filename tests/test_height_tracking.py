@@ -217,6 +217,36 @@ def test_sweep_command_holds_one_height_per_env_and_reports_where_each_settles(e
     env.reset()
 
 
+def test_the_joint_deviation_gate_on_the_command(env_and_agent):
+    """AGILE's gate (the root above min_height_m) alone by default; with min_command_m, also only while the command
+    asks for at least that height (the trained policy avoided every posture between about 0.65 and 0.85 m that the
+    root gate charges the whole deviation: docs/stand_up.md)."""
+    from agile.tasks.height_tracking import mdp
+    from agile.rl_env.managers import SceneEntityCfg
+
+    env, _ = env_and_agent
+    registered = env.reward_manager.get_term_cfg("joint_deviation_l1")
+    assert registered.params["min_command_m"] is None and registered.params["min_height_m"] == 0.5
+    term = env.command_manager.get_term("height")
+    joints = SceneEntityCfg("robot")
+    joints.resolve(env)
+    try:
+        term.set_fixed_command(torch.tensor([[0.3], [0.95], [0.9]]))
+        generator = torch.Generator().manual_seed(0)
+        with torch.inference_mode():
+            for _ in range(3):  # off the default pose, in every env
+                env.step(torch.randn(env.num_envs, env.action_manager.total_action_dim, generator=generator))
+        ungated = mdp.joint_deviation_if_standing(env, -1.0, joints)  # every root "above" -1 m
+        assert (ungated > 0).all()
+        agile_gate = mdp.joint_deviation_if_standing_asked(env, -1.0, joints, "height")
+        asked = mdp.joint_deviation_if_standing_asked(env, -1.0, joints, "height", min_command_m=0.9)
+    finally:
+        term.set_fixed_command(None)
+        env.reset()
+    assert torch.equal(agile_gate, ungated)
+    assert asked[0] == 0.0 and torch.equal(asked[1:], ungated[1:])
+
+
 def test_command_config_errors_name_the_field(env_and_agent):
     env, _ = env_and_agent
     from agile.rl_env import mdp

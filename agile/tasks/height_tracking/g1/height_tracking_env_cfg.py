@@ -150,13 +150,15 @@ class RewardsCfg:
     ankle_torques = RewTerm(func=mdp.joint_torques_l2, weight=-1.0e-3,
                             params={"asset_cfg": SceneEntityCfg("robot", joint_names=".*_ankle_.*")})
     # -- posture: the default pose once up, still at the target, upright, never upside down or bent forward
-    joint_deviation_l1 = RewTerm(func=mdp.joint_deviation_if_standing, weight=-0.5,
+    # (min_command_m None: AGILE's gate, the root height alone; a command gate is being tried, see the term)
+    joint_deviation_l1 = RewTerm(func=mdp.joint_deviation_if_standing_asked, weight=-0.5,
                                  params={"min_height_m": 0.5, "sensor_name": BASE_HEIGHT_SENSOR,
-                                         "asset_cfg": SceneEntityCfg("robot"), "norm": "l1"})
-    joint_deviation_l1_arms = RewTerm(func=mdp.joint_deviation_if_standing, weight=-0.5,
+                                         "asset_cfg": SceneEntityCfg("robot"), "norm": "l1",
+                                         "command_name": COMMAND, "min_command_m": None})
+    joint_deviation_l1_arms = RewTerm(func=mdp.joint_deviation_if_standing_asked, weight=-0.5,
                                       params={"min_height_m": 0.4, "sensor_name": BASE_HEIGHT_SENSOR,
                                               "asset_cfg": SceneEntityCfg("robot", joint_names=ARM_JOINTS),
-                                              "norm": "l1"})
+                                              "norm": "l1", "command_name": COMMAND, "min_command_m": None})
     not_moving = RewTerm(func=mdp.moving_if_tracking, weight=-1.0,
                          params={"command_name": COMMAND, "error_threshold_m": 0.1})
     torso_upright = RewTerm(func=mdp.upright_orientation_after_standing, weight=-1.0,

@@ -9,12 +9,12 @@ import torch
 
 from agile.rl_env.managers import ROBOT, ManagerTermBase, SceneEntityCfg
 from agile.rl_env.mdp.rewards import body_projected_gravity
-from agile.tasks.stand_up.mdp.rewards import standing
+from agile.tasks.stand_up.mdp.rewards import joint_deviation_if_standing, standing
 from agile.utils.math import quat_conjugate, quat_mul, yaw_from_quat
 
 __all__ = ["body_orientation_penalty", "bodies_lin_vel_l2", "completely_airborne", "feet_distance_3d",
            "feet_distance_3d_if_standing", "foot_orientation_l1", "ground_unloaded", "impact_velocity",
-           "joint_pos_tracking_error_l2", "moving_if_tracking", "relaxation_penalty", "severely_tilted_penalty",
+           "joint_deviation_if_standing_asked", "joint_pos_tracking_error_l2", "moving_if_tracking", "relaxation_penalty", "severely_tilted_penalty",
            "track_height_command_exp", "upright_orientation_after_standing"]
 
 ORIENTATION_AXES = ("roll", "pitch")
@@ -83,6 +83,23 @@ def moving_if_tracking(env, command_name: str, error_threshold_m: float, asset_c
     moving = (weight_lin * torch.norm(velocity[..., :3], dim=-1).mean(dim=1)
               + weight_ang * torch.norm(velocity[..., 3:], dim=-1).mean(dim=1))
     return moving * (_height_error_m(env, command_name).abs() < error_threshold_m)
+
+
+def joint_deviation_if_standing_asked(env, min_height_m: float, asset_cfg: SceneEntityCfg, command_name: str,
+                                     min_command_m: float | None = None, norm: str = "l1",
+                                     sensor_name: str | None = None) -> torch.Tensor:
+    """`joint_deviation_if_standing` (the root above `min_height_m`: AGILE's gate), and only while the height
+    command asks for at least `min_command_m` [m] (None: whatever it asks, AGILE's term).
+
+    Why a command gate: the root-height gate comes from StandUp, whose only goal is standing. Here, every posture
+    that holds the tracked point between about 0.65 and 0.85 m has the root above 0.5 m with the knees bent, and
+    pays the whole deviation from the default pose (all 29 joints, l1, weight -0.5: 4-7 per step) as much as the
+    height rewards gain by reaching the command; the trained policy stays below the gate instead (docs/stand_up.md,
+    "the reward balance")."""
+    deviation = joint_deviation_if_standing(env, min_height_m, asset_cfg, norm, sensor_name)
+    if min_command_m is None:
+        return deviation
+    return deviation * (env.command_manager.get_term(command_name).target_height_m >= min_command_m)
 
 
 class ground_unloaded(ManagerTermBase):  # noqa: N801 (AGILE's name)
