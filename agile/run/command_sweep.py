@@ -116,16 +116,21 @@ def sweep_table(rows: list) -> str:
     return "\n".join(lines)
 
 
-def reward_terms_table(rows: list, num_terms: int = 10) -> str:
-    """The reward balance per value as a Markdown table: the total and the `num_terms` terms whose mean per step
-    varies most across the values (what tells the settled postures apart)."""
-    rows = [row for row in rows if "reward_per_step" in row]
-    if not rows:
-        return ""
+def reward_terms_shown(rows: list, num_terms: int) -> list[str]:
+    """"total" and the `num_terms` reward terms whose mean per step varies most across the rows' values (what tells
+    the settled postures apart)."""
     terms = [name for name in rows[0]["reward_per_step"] if name != "total"]
     spread = {name: max(r["reward_per_step"][name] for r in rows) - min(r["reward_per_step"][name] for r in rows)
               for name in terms}
-    shown = ["total", *sorted(terms, key=lambda name: -spread[name])[:num_terms]]
+    return ["total", *sorted(terms, key=lambda name: -spread[name])[:num_terms]]
+
+
+def reward_terms_table(rows: list, num_terms: int = 10) -> str:
+    """The reward balance per value as a Markdown table: the total and the `num_terms` terms that differ most."""
+    rows = [row for row in rows if "reward_per_step" in row]
+    if not rows:
+        return ""
+    shown = reward_terms_shown(rows, num_terms)
     lines = ["| commanded | " + " | ".join(shown) + " |", "|---|" + "---|" * len(shown)]
     for row in rows:
         lines.append(f"| {row['command']:.3f} | " + " | ".join(f"{row['reward_per_step'][n]:+.3f}" for n in shown)

@@ -122,8 +122,10 @@ def git_repos() -> list[str]:
     return [str(REPO_ROOT)] if (REPO_ROOT / ".git").exists() else []
 
 
-def add_common_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--task", required=True, help="registered task ID, e.g. Velocity-T1-v0")
+def add_common_args(parser: argparse.ArgumentParser, task_required: bool = True) -> None:
+    """--task and the arguments every env-building command takes. `task_required` False: the command checks
+    --task itself (it has a mode that builds no env)."""
+    parser.add_argument("--task", required=task_required, help="registered task ID, e.g. Velocity-T1-v0")
     parser.add_argument("--num_envs", type=int, default=None,
                         help=f"parallel envs (default: the task's on GPU, {CPU_DEFAULT_NUM_ENVS} on CPU)")
     parser.add_argument("--device", default=None, help="cuda:0 or cpu (default: cuda:0 when a GPU is present)")

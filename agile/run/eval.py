@@ -38,6 +38,7 @@ from agile.run.common import load_policy
 from agile.run.eval_breakdowns import (HEIGHT_BIN_EDGES_M, SPEED_BIN_EDGES_MPS, ErrorByCommand, FallsByTime,
                                       OutcomesByVariant, spawn_cell_variants)
 from agile.run.policy import inference_cfg
+from agile.run.sweep_plots import plot_sweep
 
 FALL_TIME_BIN_S = 1.0
 """Width of the bins of `falls_by_episode_time_s`, when in their episodes episodes ended and fell."""
@@ -239,37 +240,6 @@ def sweep_table(rows: list) -> str:
     return "\n".join(lines)
 
 
-def sweep_heat_map(rows: list, path: str, title: str) -> None:
-    """A PNG with one heat map per metric over (vx, height) (or a row of vx without a height command)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    height = "base_height_error_m" in rows[0]
-    vxs = sorted({r["command"][0] for r in rows})
-    hs = sorted({r["command"][3] for r in rows}) if height else [0.0]
-    metrics = ["fall_rate", "lin_vel_error_mps"] + (["base_height_error_m"] if height else [])
-    fig, axes = plt.subplots(1, len(metrics), figsize=(4.5 * len(metrics), 3.6), squeeze=False)
-    for ax, metric in zip(axes[0], metrics):
-        grid = np.full((len(hs), len(vxs)), np.nan)
-        for r in rows:
-            grid[hs.index(r["command"][3]) if height else 0, vxs.index(r["command"][0])] = r[metric]
-        image = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis")
-        ax.set_xticks(range(len(vxs)), [f"{v:+.2f}" for v in vxs])
-        ax.set_yticks(range(len(hs)), [f"{h:.2f}" for h in hs] if height else [""])
-        ax.set_xlabel("commanded vx [m/s]")
-        ax.set_ylabel("commanded base height [m]" if height else "")
-        for (i, j), value in np.ndenumerate(grid):
-            ax.text(j, i, f"{value:.3f}", ha="center", va="center", color="w", fontsize=7)
-        ax.set_title(metric)
-        fig.colorbar(image, ax=ax)
-    fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-
-
 def write_sweep(args, env, checkpoint: str, device: str, rows_key: str, rows: list) -> None:
     """A sweep's rows as JSON in --out, with what was evaluated and how."""
     result = {"task": args.task, "checkpoint": checkpoint, "device": device, "num_envs": env.num_envs,
@@ -296,27 +266,12 @@ def run_command_sweep(args, env, policy, checkpoint: str, device: str) -> None:
     print(reward_terms_table(rows))
     if args.out:
         write_sweep(args, env, checkpoint, device, "values", rows)
-
-
-def plot_sweep(json_path: str) -> None:
-    """The heat map of a sweep's JSON, next to it (.png); where matplotlib is missing, how to make it later."""
-    import importlib.util
-
-    if importlib.util.find_spec("matplotlib") is None:
-        print(f"[agile] no heat map: matplotlib is missing (pip install 'agile[plot]', then "
-              f"agile eval --plot_sweep {json_path})")
-        return
-    with open(json_path) as f:
-        result = json.load(f)
-    png = os.path.splitext(json_path)[0] + ".png"
-    sweep_heat_map(result["cells"], png, f"{result['task']}: {result['num_envs']} envs, "
-                                         f"{result['episodes_per_env']} x {result['episode_length_s']:g} s episodes")
-    print(f"[agile] heat map: {png}")
+        plot_sweep(args.out)
 
 
 def main(argv=None) -> None:
     parser = cli.new_parser(__doc__)
-    cli.add_common_args(parser)
+    cli.add_common_args(parser, task_required=False)  # --plot_sweep alone builds nothing
     parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (default: the shipped policy); "
                         "for a multi-agent task its training run folder (the newest model of each group)")
     parser.add_argument("--command", type=float, nargs=3, default=None, metavar=("VX", "VY", "WZ"),
@@ -333,7 +288,7 @@ def main(argv=None) -> None:
                         help="hold each env at one of these values of the task's one-value command that measures its "
                         "own error (HeightTracking: the height [m]) and report where the robot settles, per value")
     parser.add_argument("--plot_sweep", default=None, metavar="SWEEP.json",
-                        help="only draw the heat map of a sweep's JSON (no env, no policy)")
+                        help="only draw a sweep's JSON (no env, no policy): the heat map, or where the envs settled")
     parser.add_argument("--out", default=None, help="write the metrics as JSON here")
     parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
     parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
@@ -341,8 +296,12 @@ def main(argv=None) -> None:
     args = cli.parse(parser, argv)
 
     if args.plot_sweep:
+        if not os.path.isfile(args.plot_sweep):
+            cli.fail(f"--plot_sweep {args.plot_sweep}: no such file")
         plot_sweep(args.plot_sweep)
         return
+    if args.task is None:
+        parser.error("the following arguments are required: --task")
     if args.sweep_command is not None and (args.sweep_lin_vel_x is not None or args.command is not None):
         cli.fail("--sweep_command holds its own commands: not with --sweep_lin_vel_x or --command")
     if multi_agent.is_multi_agent(args.task):
