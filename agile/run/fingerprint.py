@@ -51,6 +51,7 @@ AVX2 and AVX-512 kernels round differently (measured: the T1 fingerprint parts a
 physics step amplifies one rounding into a different solver result. tests/conftest.py and this module's main set
 them before torch is imported."""
 
+
 def this_cpu() -> str:
     """The CPU model as a folder name, `<vendor>-family<F>-model<M>` from /proc/cpuinfo (`platform.machine()` and
     `platform.processor()` where there is none).
