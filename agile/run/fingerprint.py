@@ -61,7 +61,7 @@ def this_cpu() -> str:
     `unnamed-avx512-cpu/`) at step 1: T1's step-1 actions are identical, the physics step's result differs by
     2.5e-6 rad/s in base angular velocity, 1.6e-3 two steps later; the same commit, the same wheels. Not the cause,
     each measured on it: Warp's CPU target, oneDNN's ISA, glibc's CPU-feature tunables, numpy's SIMD dispatch,
-    ATen's capability (docs/policies.md)."""
+    ATen's capability, memory read uninitialised (docs/policies.md)."""
     fields = {}
     with contextlib.suppress(OSError), open("/proc/cpuinfo") as cpuinfo:
         for line in cpuinfo:
