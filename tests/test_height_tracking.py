@@ -171,12 +171,15 @@ def test_sweep_command_holds_one_height_per_env_and_reports_where_each_settles(e
     # the reward terms summed apart, from inside the policy: it sees each step's rewards before the next step (the
     # last step's, a time-out, count nothing: the env has reset and its episode time is 0)
     reward_sums = {name: torch.zeros(env.num_envs) for name in env.reward_manager.weights}
+    robot = env.scene["robot"]
+    joint_pos_sums = torch.zeros_like(robot.joint_pos)
     late_steps = torch.zeros(env.num_envs)
 
     def policy(obs):
         late = (env.episode_length_buf * env.step_dt >= 1.0).float()
         for name, reward in env.reward_manager.step_reward.items():
             reward_sums[name] += reward * late
+        joint_pos_sums.add_(robot.joint_pos * late.unsqueeze(1))
         late_steps.add_(late)
         return torch.zeros(env.num_envs, num_actions)
 
@@ -201,6 +204,10 @@ def test_sweep_command_holds_one_height_per_env_and_reports_where_each_settles(e
             assert balance[name] == pytest.approx(float(sums[env_id] / late_steps[env_id]), rel=1e-3, abs=1e-4), name
         assert balance["total"] == pytest.approx(sum(v for k, v in balance.items() if k != "total"), abs=1e-3)
         assert 0.0 < balance["base_height_fine"] <= 16.0  # exp kernel times its weight
+        posture = row["joint_pos_rad"]
+        assert list(posture) == robot.joint_names
+        expected = joint_pos_sums[env_id] / late_steps[env_id]
+        assert list(posture.values()) == pytest.approx(expected.tolist(), abs=2e-3)
     table = sweep_table(rows)
     assert table.count("\n") == 1 + len(rows) and "0.800" in table
     balance_table = reward_terms_table(rows, num_terms=3)

@@ -9,7 +9,8 @@ Each env holds one of the values (env i: value i mod values) for all its episode
 fall rate and episodes, the mean absolute and signed error of those per-env means, their 10/50/90th percentiles and
 every env's (sorted): a policy that holds a few postures rather than the commanded value shows as clusters. And the
 reward balance where the envs settle: each reward term's mean per step over the same steps (weighted, before the
-step's dt), so that what a posture earns and what it is charged can be read per value (`reward_terms_table`).
+step's dt), so that what a posture earns and what it is charged can be read per value (`reward_terms_table`), and
+the posture itself: each joint's mean position over those steps.
 """
 
 from __future__ import annotations
@@ -33,14 +34,16 @@ def swept_command(env):
 
 
 class SettledValues:
-    """An evaluation recorder: per env, the sums of the command's measured value and of each reward term, and their
-    count, over the steps at or after `after_s` of episode time."""
+    """An evaluation recorder: per env, the sums of the command's measured value, of each reward term and of the
+    policy's robot's joint positions, and their count, over the steps at or after `after_s` of episode time."""
 
     def __init__(self, term, env, after_s: float):
         self.term, self.after_s = term, after_s
         self.sum = torch.zeros(env.num_envs, device=env.device)
         self.count = torch.zeros(env.num_envs, device=env.device)
         self.reward_sums = {name: torch.zeros(env.num_envs, device=env.device) for name in env.reward_manager.weights}
+        self.robot = env.scene[env.action_manager.policy_entity_name()]
+        self.joint_pos_sums = torch.zeros_like(self.robot.joint_pos)
 
     def record(self, env, time_s: float) -> None:
         late = (env.episode_length_buf * env.step_dt >= self.after_s).float()
@@ -48,6 +51,7 @@ class SettledValues:
         self.count += late
         for name, reward in env.reward_manager.step_reward.items():
             self.reward_sums[name] += reward * late
+        self.joint_pos_sums += self.robot.joint_pos * late.unsqueeze(1)
 
     def per_env(self) -> torch.Tensor:
         """(N,) the mean measured value, NaN for an env without a counted step."""
@@ -61,6 +65,12 @@ class SettledValues:
         steps = self.count[mask].sum().clamp(min=1.0)
         per_term = {name: float(sums[mask].sum() / steps) for name, sums in self.reward_sums.items()}
         return {"total": sum(per_term.values()), **per_term}
+
+    def joint_pos(self, mask: torch.Tensor) -> dict[str, float]:
+        """{joint: its mean position [rad]} over the counted steps of the envs in `mask` (the settled posture)."""
+        steps = self.count[mask].sum().clamp(min=1.0)
+        means = self.joint_pos_sums[mask].sum(dim=0) / steps
+        return {name: float(value) for name, value in zip(self.robot.joint_names, means)}
 
 
 def command_sweep(env, policy, num_episodes: int, values: list[float],
@@ -95,7 +105,8 @@ def command_sweep(env, policy, num_episodes: int, values: list[float],
                         f"mean_signed_error_{unit_name}": float(error.mean()),
                         f"reached_{unit_name}_p10_p50_p90": [round(float(p), 4) for p in percentiles],
                         f"reached_{unit_name}_per_env": [round(float(r), 3) for r in reached],
-                        "reward_per_step": {k: round(v, 4) for k, v in settled.reward_per_step(mask).items()}})
+                        "reward_per_step": {k: round(v, 4) for k, v in settled.reward_per_step(mask).items()},
+                        "joint_pos_rad": {k: round(v, 3) for k, v in settled.joint_pos(mask).items()}})
         rows.append(row)
     print(f"[agile] {name}: the value reached from {settled_after_s:g} s of each episode on, per env")
     return rows
