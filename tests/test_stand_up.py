@@ -175,6 +175,18 @@ def test_a_second_build_loads_the_cache_and_a_cut_cache_is_rebuilt(stand_up_env)
     assert "collected in" in printed and len(list(cache_dir.iterdir())) == 2
 
 
+def test_a_seeded_build_draws_the_same_numbers_whether_it_collects_or_loads(tmp_path):
+    """The collection runs on forked generators: after the build (which resets every env) the next random numbers,
+    and so every later reset, are the same for the build that collected the dataset and the one that loaded it."""
+    after = []
+    for expected in ("collected in", "loaded from the cache"):
+        env, printed = _build(_small_env_cfg(tmp_path)[0])
+        assert expected in printed
+        after.append((env.scene["robot"].root_pose_w.clone(), torch.rand(8)))
+    (pose_collected, draws_collected), (pose_loaded, draws_loaded) = after
+    assert torch.equal(pose_collected, pose_loaded) and torch.equal(draws_collected, draws_loaded)
+
+
 def test_the_built_env_then_one_ppo_iteration(stand_up_env, tmp_path):
     from rsl_rl.runners import OnPolicyRunner
 

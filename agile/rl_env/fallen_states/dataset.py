@@ -208,7 +208,11 @@ def load_or_collect(env, cfg: FallenStateDatasetCfg, task_name: str, robot_name:
             print(f"[agile] fallen states: the cache {path} is {why_not}: collecting again", flush=True)
     if states is None:
         env.sim.capacity.clear()
-        states = collect_fallen_states(env, cfg, robot_name)
+        # on forked generators: the env's random numbers after the build are the same whether the dataset was
+        # collected or loaded (a seeded run of a stand-up task drew other resets once the cache existed)
+        cuda = torch.device(env.device).type == "cuda"
+        with torch.random.fork_rng(devices=[torch.device(env.device).index or 0] if cuda else []):
+            states = collect_fallen_states(env, cfg, robot_name)
         if torch.device(env.device).type == "cuda":  # the collection is asynchronous: time it whole
             torch.cuda.synchronize(env.device)
         print(f"[agile] fallen states: {len(states['level'])} collected in {time.perf_counter() - start:.1f} s "
