@@ -179,3 +179,12 @@ def test_show_resolves_regexes_dims_and_actuators():
     actuators = mdp["actuators"]["robot"]
     assert list(actuators) == mdp["scene"]["entities"]["robot"]["joints"]
     assert all(a["group"] is not None and a["stiffness_nm_per_rad"] > 0 for a in actuators.values())
+
+
+def test_cli_forwards_fingerprint_and_its_errors(capsys):
+    """`agile fingerprint` is agile/run/fingerprint.py's main: an unknown policy file is refused, naming the shipped."""
+    from agile.cli import main
+
+    assert main(["fingerprint", "--check", "Nope-v0.pt"]) == 2
+    err = capsys.readouterr().err
+    assert "not shipped policies: ['Nope-v0.pt']" in err and "Velocity-T1-v0.pt" in err

@@ -14,9 +14,9 @@ must match one of them.
 A change that moves a fingerprint is a change to what a shipped policy meets: re-record it in the same commit,
 with a GPU eval showing that the policy still passes its criteria (`agile eval_all`), and say so.
 
-    python -m agile.run.fingerprint --check              # every shipped policy against its recordings
-    python -m agile.run.fingerprint --record [FILE...]   # rollout moved on purpose: this CPU's recording only
-    python -m agile.run.fingerprint --add_cpu [FILE...]  # same code, a CPU model without a recording: add one
+    agile fingerprint --check              # every shipped policy against its recordings
+    agile fingerprint --record [FILE...]   # rollout moved on purpose: this CPU's recording only
+    agile fingerprint --add_cpu [FILE...]  # same code, a CPU model without a recording: add one
 """
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ def require_pinned_numerics() -> None:
     if wrong:
         settings = " ".join(f"{k}={v}" for k, v in PINNED_CPU_NUMERICS.items())
         raise UnpinnedNumericsError(f"fingerprints need {settings} in the environment before torch is imported "
-                                    f"(now {wrong}); tests/conftest.py and `python -m agile.run.fingerprint` set them")
+                                    f"(now {wrong}); tests/conftest.py and `agile fingerprint` set them")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -226,17 +226,17 @@ def mismatch_report(policy: ShippedPolicy, divergences: dict[str, str]) -> str:
     """Why a rollout matches none of its recordings, and what to do: a changed rollout when this CPU has a
     recording, else possibly only another CPU's rounding."""
     if not divergences:
-        return f"{policy.file.name} has no fingerprint: python -m agile.run.fingerprint --record {policy.file.name}"
+        return f"{policy.file.name} has no fingerprint: agile fingerprint --record {policy.file.name}"
     here = this_cpu()
     parts = "; ".join(f"recorded on {cpu}: {d}" for cpu, d in divergences.items())
-    fix = (f"If the change is meant, re-record (python -m agile.run.fingerprint --record {policy.file.name}) in "
+    fix = (f"If the change is meant, re-record (agile fingerprint --record {policy.file.name}) in "
            "the same commit, with a GPU eval (agile eval_all) showing that the policy still passes its criteria, "
            "and say so in the commit message")
     if here in divergences:
         return f"{policy.file.name} no longer rolls out as recorded on this CPU ({here}): {parts}. {fix}"
     return (f"{policy.file.name} matches none of its recordings, and none was made on this CPU ({here}): {parts}. "
             f"If this commit's parent rolls out the same here, only the CPU differs: add its recording "
-            f"(python -m agile.run.fingerprint --add_cpu {policy.file.name}). {fix}")
+            f"(agile fingerprint --add_cpu {policy.file.name}). {fix}")
 
 
 def first_divergence(expected: dict[str, np.ndarray], actual: dict[str, np.ndarray], rtol: float = RTOL,
