@@ -33,6 +33,10 @@ def test_eval_all_tiny_cpu_setting(tmp_path, task):
     if "lin_vel_error_mps" in metrics["criteria"]:
         by_speed = metrics["error_by_command"]["lin_vel_error_mps_by_speed_mps"]
         assert by_speed and all(row["steps"] > 0 and row["error"] >= 0.0 for row in by_speed)
+        by_yaw_rate = metrics["error_by_command"]["ang_vel_error_radps_by_yaw_rate_radps"]
+        assert sum(row["steps"] for row in by_yaw_rate) == sum(row["steps"] for row in by_speed)  # the same steps
+        mean = sum(row["error"] * row["steps"] for row in by_yaw_rate) / sum(row["steps"] for row in by_yaw_rate)
+        assert mean == pytest.approx(metrics["ang_vel_error_radps"], rel=1e-4)  # the bins split the overall error
     assert ("base_height_error_m_by_height_m" in metrics["error_by_command"]) == ("base_height_error_m" in metrics)
 
 

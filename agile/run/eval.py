@@ -12,8 +12,9 @@ Each env runs `num_episodes` episodes of `episode_length_s` (pushes off unless -
 early starts another within the window, which is not counted: every env contributes exactly `num_episodes`.
 Commands are drawn by the task's command term (uniform over its ranges, a share standing), or fixed with --command.
 Without --checkpoint the policy shipped with agile for the task is evaluated. Prints and writes JSON.
-Velocity errors are measured for tasks with a velocity command, the height error (commanded minus measured above
-the terrain) for those with a base-height command; every task reports its episode metrics as means over the ended
+Velocity errors are measured for tasks with a velocity command (also by commanded planar speed and by commanded
+|yaw rate|, under "error_by_command"), the height error (commanded minus measured above the terrain) for those with a
+base-height command; every task reports its episode metrics as means over the ended
 episodes under "episode_metrics": its command terms' (`CommandTerm.metrics`, "<term>/<name>": the motion-tracking
 errors, pick-and-place success) and its metric terms' (the env cfg's `metrics`, "<name>": the stand-up success);
 a command that draws kinds of episode (pick-and-place: which trajectory) gets episodes, falls and those metrics per
@@ -35,7 +36,8 @@ from agile.run import common as cli
 
 from agile.run import multi_agent
 from agile.run.common import load_policy
-from agile.run.eval_breakdowns import (HEIGHT_BIN_EDGES_M, SPEED_BIN_EDGES_MPS, ErrorByCommand, FallsByTime,
+from agile.run.eval_breakdowns import (HEIGHT_BIN_EDGES_M, SPEED_BIN_EDGES_MPS, YAW_RATE_BIN_EDGES_RADPS,
+                                     ErrorByCommand, FallsByTime,
                                       OutcomesByVariant, spawn_cell_variants)
 from agile.run.policy import inference_cfg
 from agile.run.sweep_plots import plot_sweep
@@ -93,6 +95,7 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
     term_sums = {name: torch.zeros((), device=env.device) for name in env.reward_manager.weights}
     robot = env.scene[env.action_manager.policy_entity_name()]  # the robot the policy drives
     by_speed = ErrorByCommand(SPEED_BIN_EDGES_MPS, env.device)
+    by_yaw_rate = ErrorByCommand(YAW_RATE_BIN_EDGES_RADPS, env.device)
     by_height = ErrorByCommand(HEIGHT_BIN_EDGES_M, env.device)
     obs, _ = env.reset()
     command_errors = {}  # the errors the command terms measure themselves (a height command's), by command value
@@ -123,7 +126,9 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
                 lin_vel_error = torch.linalg.norm(command[:, :2] - robot.root_lin_vel_b[:, :2], dim=1)
                 sums["lin_vel_error_mps"] += lin_vel_error * alive
                 by_speed.add(torch.linalg.norm(command[:, :2], dim=1), lin_vel_error, alive)
-                sums["ang_vel_error_radps"] += (command[:, 2] - robot.root_ang_vel_b[:, 2]).abs() * alive
+                yaw_rate_error = (command[:, 2] - robot.root_ang_vel_b[:, 2]).abs()
+                sums["ang_vel_error_radps"] += yaw_rate_error * alive
+                by_yaw_rate.add(command[:, 2].abs(), yaw_rate_error, alive)
             if height_sensor is not None:
                 height_error = (command[:, 3] - base_height_above_ground(env, sensor_name=height_sensor)).abs()
                 sums["base_height_error_m"] += height_error * alive
@@ -146,7 +151,8 @@ def evaluate_per_env(env, policy, num_episodes: int, command_name: str | None = 
                 sums[f"episode_metric/{key}"] += value * done
             for outcomes in by_variant.values():
                 outcomes.add(done, terminated, last_metrics)
-    by_command = {"lin_vel_error_mps_by_speed_mps": by_speed.rows()} if command_name is not None else {}
+    by_command = {"lin_vel_error_mps_by_speed_mps": by_speed.rows(),
+                  "ang_vel_error_radps_by_yaw_rate_radps": by_yaw_rate.rows()} if command_name is not None else {}
     if height_sensor is not None:
         by_command["base_height_error_m_by_height_m"] = by_height.rows()
     by_command.update({key: by_value.rows() for key, (_, by_value) in command_errors.items()})

@@ -186,6 +186,8 @@ def bin_label(bounds: list) -> str:
 
 ERROR_BY_COMMAND_AXES = {
     "lin_vel_error_mps_by_speed_mps": ("lin_vel_error_mps", "commanded planar speed [m/s]", "velocity error [m/s]"),
+    "ang_vel_error_radps_by_yaw_rate_radps": ("ang_vel_error_radps", "commanded |yaw rate| [rad/s]",
+                                              "yaw-rate error [rad/s]"),
     "base_height_error_m_by_height_m": ("base_height_error_m", "commanded base height [m]", "height error [m]"),
 }
 """eval.py's error-by-command keys: (the metric it splits, x label, y label)."""

@@ -1,5 +1,5 @@
 """What an evaluation tallies on the device as it runs, for its breakdowns: a tracking error by the commanded value
-(velocity by commanded speed, height by commanded height) and the outcomes by the kind of episode each env started
+(velocity by commanded speed, yaw rate by commanded |yaw rate|, height by commanded height) and the outcomes by the kind of episode each env started
 (pick-and-place by trajectory; on a terrain grid by the cell it spawned on), and when in their episodes the falls
 happen."""
 
@@ -11,6 +11,8 @@ SPEED_BIN_EDGES_MPS = (0.05, 0.25, 0.5, 0.75, 1.0)
 """Bins of the commanded planar speed |(vx, vy)| for the velocity error by command: [0, 0.05) is standing still."""
 HEIGHT_BIN_EDGES_M = (0.45, 0.5, 0.55, 0.6, 0.65, 0.7)
 """Bins of the commanded base height for the height error by command."""
+YAW_RATE_BIN_EDGES_RADPS = (0.05, 0.25, 0.5, 0.75, 1.0)
+"""Bins of the commanded |yaw rate| for the yaw-rate error by command: [0, 0.05) is holding the heading still."""
 
 
 class ErrorByCommand:
