@@ -21,6 +21,8 @@ def test_the_run_stops_at_the_first_checkpoint_that_meets_the_criteria(tmp_path,
     (first,) = result["evaluations"]
     assert result["criteria"] == {"fall_rate": 1.0} and result["iteration_at_criteria"] == first["iteration"]
     assert first["met"] and 0 < result["time_to_policy_s"] < 300 and result["first_iteration_s"] is not None
+    # each evaluation keeps the errors by command: where a missed criterion comes from
+    assert set(first["error_by_command"]) == {"lin_vel_error_mps_by_speed_mps", "ang_vel_error_radps_by_yaw_rate_radps"}
     assert "Learning iteration 0" in (tmp_path / "t1.log").read_text()  # the training's own log beside it
 
 

@@ -132,6 +132,8 @@ class CheckpointJudge:
         missed = missed_criteria(metrics, self.criteria, self.minima)
         row = {"iteration": iteration, "wall_s": round(written_s, 1), "met": not missed, "missed": missed,
                **{k: metrics[k] for k in CURVE_METRICS if k in metrics}, "episodes": metrics.get("episodes")}
+        if metrics.get("error_by_command"):  # which commands a missed error comes from (yaw rate by turn rate, ...)
+            row["error_by_command"] = metrics["error_by_command"]
         self.rows.append(row)
         print(f"[agile] {row['wall_s']:7.1f} s, iteration {iteration}: "
               + ", ".join(f"{k} {row[k]:.3f}" for k in CURVE_METRICS if k in row)
