@@ -55,10 +55,7 @@ class SettledValues:
 
     def per_env(self) -> torch.Tensor:
         """(N,) the mean measured value, NaN for an env without a counted step."""
-        return self.mean_per_env(self.sum)
-
-    def mean_per_env(self, sums: torch.Tensor) -> torch.Tensor:
-        return torch.where(self.count > 0, sums / self.count.clamp(min=1.0), torch.nan)
+        return torch.where(self.count > 0, self.sum / self.count.clamp(min=1.0), torch.nan)
 
     def reward_per_step(self, mask: torch.Tensor) -> dict[str, float]:
         """{term: its mean per step} over the counted steps of the envs in `mask`; the sum as "total"."""

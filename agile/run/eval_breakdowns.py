@@ -1,7 +1,7 @@
 """What an evaluation tallies on the device as it runs, for its breakdowns: a tracking error by the commanded value
-(velocity by commanded speed, yaw rate by commanded |yaw rate|, height by commanded height) and the outcomes by the kind of episode each env started
-(pick-and-place by trajectory; on a terrain grid by the cell it spawned on), and when in their episodes the falls
-happen."""
+(velocity by commanded speed, yaw rate by commanded |yaw rate|, height by commanded height) and the outcomes by the
+kind of episode each env started (pick-and-place by trajectory; on a terrain grid by the cell it spawned on), and
+when in their episodes the falls happen."""
 
 from __future__ import annotations
 
