@@ -19,7 +19,7 @@ from agile.rl_env.rsl_rl.exporter import (example_input, export_policy, io_descr
 from commands import FLAT_GROUND
 from scenes import robot_sim
 
-from agile.run import sim2mujoco  # noqa: E402
+from agile.run import mujoco_robot, sim2mujoco  # noqa: E402
 
 
 TASK = "Velocity-G1-History-v0"
@@ -158,9 +158,9 @@ def test_newton_and_plain_mujoco_agree_on_the_same_torques(exported):
     robot = sim.scene["robot"]
     targets = robot.default_joint_pos[0].numpy() + np.random.default_rng(0).uniform(-0.3, 0.3, robot.num_joints)
     robot.joint_pos_target[0] = torch.tensor(targets, dtype=torch.float32)
-    model = sim2mujoco.build_model(descriptor, sim2mujoco.default_mjcf(descriptor))
+    model = mujoco_robot.build_model(descriptor, sim2mujoco.default_mjcf(descriptor))
     data = mujoco.MjData(model)
-    mj_robot = sim2mujoco.Robot(descriptor, model)
+    mj_robot = mujoco_robot.Robot(descriptor, model)
     data.qpos[2] = descriptor["default_root_height_m"]
     data.qpos[mj_robot.qpos_adr] = mj_robot.default_q
     mujoco.mj_forward(model, data)

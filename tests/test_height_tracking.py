@@ -123,7 +123,7 @@ def test_the_command_error_eval_bins_is_the_metrics_error_on_the_steps_it_counts
 
 
 def test_eval_reports_the_height_error_by_commanded_height(env_and_agent):
-    from agile.run.eval import evaluate
+    from agile.run.evaluation import evaluate
 
     env, _ = env_and_agent
     num_actions = env.action_manager.total_action_dim

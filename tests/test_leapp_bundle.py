@@ -13,7 +13,7 @@ from commands import run_command
 import agile.tasks
 from agile.rl_env.rsl_rl.checkpoints import load_checkpoint
 from agile.rl_env.rsl_rl.leapp_bundle import SUPPORTED_OBSERVATIONS, DeployGraph, UnsupportedPolicyError
-from agile.run import sim2mujoco
+from agile.run import mujoco_robot, sim2mujoco
 from agile.run.env import build_env
 from agile.run.export import export, export_leapp
 from agile.run.mujoco_commands import make_commands
@@ -57,9 +57,9 @@ def test_the_bundle_gives_the_torchscript_policys_targets_on_the_same_states(exp
     initial values restore its last action, histories and hidden state."""
     paths, bundle = exported
     descriptor = sim2mujoco.yaml_load(paths["io_descriptor"])
-    model = sim2mujoco.build_model(descriptor, sim2mujoco.default_mjcf(descriptor))
+    model = mujoco_robot.build_model(descriptor, sim2mujoco.default_mjcf(descriptor))
     data = mujoco.MjData(model)
-    walking, shadow = sim2mujoco.Robot(descriptor, model), sim2mujoco.Robot(descriptor, model)
+    walking, shadow = mujoco_robot.Robot(descriptor, model), mujoco_robot.Robot(descriptor, model)
     torchscript = sim2mujoco.DescriptorPolicy(descriptor, walking, paths["jit"])
     leapp_runtime = sim2mujoco.BundlePolicy(str(bundle), shadow)
     command = np.array([0.4, 0.0, 0.3, 0.7][:make_commands(

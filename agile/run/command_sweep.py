@@ -18,6 +18,7 @@ from __future__ import annotations
 import torch
 
 from agile.run import common as cli
+from agile.run.evaluation import evaluate_per_env, summarise
 
 SETTLED_AFTER_S = 5.0
 """Episode time after which the reached value counts: a fallen start has got up, a new value has been reached."""
@@ -72,8 +73,6 @@ class SettledValues:
 
 def command_sweep(env, policy, num_episodes: int, values: list[float],
                   settled_after_s: float = SETTLED_AFTER_S) -> list[dict]:
-    from agile.run.eval import evaluate_per_env, summarise
-
     name, term = swept_command(env)
     if env.num_envs < len(values):
         cli.fail(f"--sweep_command has {len(values)} values: use at least that many envs (--num_envs)")

@@ -22,7 +22,7 @@ from agile.run import common as cli
 from agile.run.common import load_policy
 from agile.run.policy import inference_cfg
 
-from agile.run.eval import evaluate
+from agile.run.evaluation import evaluate
 
 
 def disable_interval_events(env_cfg) -> None:

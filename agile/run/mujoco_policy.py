@@ -1,6 +1,6 @@
 """Policies as a robot runs them, from their exported files alone: `policy.pt` or `policy.onnx` with the IO
 descriptor's observation and action rules (`DescriptorPolicy`), or a LEAPP bundle run by LEAPP's own runtime
-(`BundlePolicy`). Each reads the MuJoCo state through `sim2mujoco.Robot`'s index maps and sets the robot's joint
+(`BundlePolicy`). Each reads the MuJoCo state through `mujoco_robot.Robot`'s index maps and sets the robot's joint
 targets; nothing of the training framework is used."""
 
 from __future__ import annotations
@@ -12,24 +12,17 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from agile.run import common as cli
+from agile.run.mujoco_robot import rotate_inverse
 from agile.utils.output import quiet_python_output
 
 if TYPE_CHECKING:
-    from agile.run.sim2mujoco import Robot
+    from agile.run.mujoco_robot import Robot
 
 
 def yaml_load(path: str) -> dict:
     import yaml
 
     return yaml.safe_load(Path(path).read_text())
-
-
-def rotate_inverse(quat_wxyz: np.ndarray, v: np.ndarray) -> np.ndarray:
-    w, x, y, z = quat_wxyz
-    rot = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                    [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                    [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-    return rot.T @ v
 
 
 class Observer:

@@ -14,8 +14,6 @@ import importlib.util
 import json
 import os
 
-from agile.run.command_sweep import reward_terms_shown
-
 
 def plot_sweep(json_path: str) -> str | None:
     """Draw the sweep of `json_path` next to it; the PNG's path, or None (and how to draw it later) without
@@ -80,6 +78,8 @@ def sweep_heat_map(rows: list, path: str, title: str) -> None:
 def command_sweep_plot(rows: list, path: str, title: str, num_terms: int = 6) -> None:
     """Two panels over the commanded value: where each env settled (dots; p10-p90 bar and median) against the
     diagonal of a perfect tracker, and each shown reward term's mean per step where the envs settled."""
+    from agile.run.command_sweep import reward_terms_shown  # here: it imports torch, which a --help need not load
+
     plt = _pyplot()
     settled = [r for r in rows if any(k.startswith("reached_") and k.endswith("_per_env") for k in r)]
     if not settled:

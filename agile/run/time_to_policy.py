@@ -65,7 +65,7 @@ def evaluator(args, device: str):
     """A function (checkpoint path -> eval.py's metrics) over one env in the task's evaluation setting, built once."""
     import agile.tasks
     from agile.rl_env.rsl_rl.checkpoints import load_checkpoint
-    from agile.run.eval import evaluate
+    from agile.run.evaluation import evaluate
     from agile.run.eval_all import disable_interval_events
     from agile.run.policy import inference_cfg, load_policy
     from agile.tasks.catalogue import task_entry
