@@ -108,9 +108,14 @@ def command_sweep(env, policy, num_episodes: int, values: list[float],
     return rows
 
 
+def swept_unit(rows: list) -> str:
+    """The swept value's name with its unit ("height_m"), read off the rows' keys; "" when no value settled."""
+    return next((k[len("mean_abs_error_"):] for row in rows for k in row if k.startswith("mean_abs_error_")), "")
+
+
 def sweep_table(rows: list) -> str:
     """The sweep as a Markdown table."""
-    unit_name = next((k[len("mean_abs_error_"):] for row in rows for k in row if k.startswith("mean_abs_error_")), "")
+    unit_name = swept_unit(rows)
     lines = [f"| {unit_name} commanded | fall rate | mean abs error | mean signed error | reached p10 / p50 / p90 |",
              "|---|---|---|---|---|"]
     for row in rows:

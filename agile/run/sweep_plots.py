@@ -78,13 +78,13 @@ def sweep_heat_map(rows: list, path: str, title: str) -> None:
 def command_sweep_plot(rows: list, path: str, title: str, num_terms: int = 6) -> None:
     """Two panels over the commanded value: where each env settled (dots; p10-p90 bar and median) against the
     diagonal of a perfect tracker, and each shown reward term's mean per step where the envs settled."""
-    from agile.run.command_sweep import reward_terms_shown  # here: it imports torch, which a --help need not load
+    from agile.run.command_sweep import reward_terms_shown, swept_unit  # here: they import torch, which --help need not
 
     plt = _pyplot()
-    settled = [r for r in rows if any(k.startswith("reached_") and k.endswith("_per_env") for k in r)]
+    unit = swept_unit(rows)
+    settled = [r for r in rows if f"reached_{unit}_per_env" in r]
     if not settled:
         raise ValueError("the sweep has no settled values to plot (every env fell or none was counted)")
-    unit = next(k for k in settled[0] if k.startswith("reached_") and k.endswith("_per_env"))[len("reached_"):-8]
     commands = [r["command"] for r in settled]
     fig, (reached_ax, reward_ax) = plt.subplots(1, 2, figsize=(12, 4.6))
     for r in settled:

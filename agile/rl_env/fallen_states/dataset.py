@@ -213,7 +213,7 @@ def load_or_collect(env, cfg: FallenStateDatasetCfg, task_name: str, robot_name:
         cuda = torch.device(env.device).type == "cuda"
         with torch.random.fork_rng(devices=[torch.device(env.device).index or 0] if cuda else []):
             states = collect_fallen_states(env, cfg, robot_name)
-        if torch.device(env.device).type == "cuda":  # the collection is asynchronous: time it whole
+        if cuda:  # the collection is asynchronous: time it whole
             torch.cuda.synchronize(env.device)
         print(f"[agile] fallen states: {len(states['level'])} collected in {time.perf_counter() - start:.1f} s "
               f"({env.num_envs} envs x {cfg.num_spawns_per_level} drops x {env.sim.max_terrain_level} rows)",
