@@ -188,3 +188,17 @@ def test_cli_forwards_fingerprint_and_its_errors(capsys):
     assert main(["fingerprint", "--check", "Nope-v0.pt"]) == 2
     err = capsys.readouterr().err
     assert "not shipped policies: ['Nope-v0.pt']" in err and "Velocity-T1-v0.pt" in err
+
+
+def test_overrides_may_come_before_between_and_after_options():
+    """A command line built in parts (a test's flat-ground overrides, then options, then one more override) parses;
+    argparse's plain parse_args refused the second group of overrides ("unrecognized arguments")."""
+    from agile.run import common
+
+    parser = common.new_parser("test")
+    common.add_common_args(parser)
+    common.add_recipe_arg(parser)
+    parser.add_argument("--max_iterations", type=int, default=None)
+    args = common.parse(parser, ["--task", T1, "env.a=1", "--max_iterations", "3", "agent.b=2", "--recipe", "fast"])
+    assert args.max_iterations == 3 and args.task == T1
+    assert args.overrides[-2:] == ["env.a=1", "agent.b=2"]  # after the recipe's, which they override

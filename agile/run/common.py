@@ -59,7 +59,9 @@ def parse(parser: argparse.ArgumentParser, argv=None):
     """Parse, check the counts (before anything is built), and set how much the libraries print; a --recipe's
     overrides go before the ones given (which win)."""
     global VERBOSE
-    args = parser.parse_args(argv)
+    # intermixed: overrides may come before, between or after the options (`--max_iterations 3 agent.x=1` after an
+    # `env.y=2` is what a command line built in parts looks like; plain parse_args refuses the second group)
+    args = parser.parse_intermixed_args(argv)
     if getattr(args, "recipe", None) is not None:
         from agile.run.recipes import RECIPES
 
