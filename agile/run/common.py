@@ -161,6 +161,40 @@ def read_checkpoint(path: str, trust: bool) -> dict:
         fail(str(err))
 
 
+def overrides_not_repeated(trained: list[str], given: list[str], roots: tuple[str, ...]) -> list[str]:
+    """The overrides a checkpoint was trained with (`trained`, under `roots`: "env", "agent") that `given` does not
+    repeat with the same value, each as "<override> (here: <the value given, or not set>)". The last override of a
+    path counts, as when they are applied."""
+    from agile.utils.config import parse_value
+
+    def by_path(overrides: list[str]) -> dict[str, str]:
+        pairs = (item.lstrip("-").partition("=") for item in overrides)
+        return {path: text for path, sep, text in pairs if sep}
+
+    here = by_path(given)
+    missing = []
+    for path, text in by_path(trained).items():
+        if path.partition(".")[0] not in roots:
+            continue
+        if path not in here:
+            missing.append(f"{path}={text} (here: not set)")
+        elif parse_value(here[path]) != parse_value(text):
+            missing.append(f"{path}={text} (here: {here[path]})")
+    return missing
+
+
+def warn_overrides_not_repeated(contents: dict, given: list[str], roots: tuple[str, ...], purpose: str) -> None:
+    """Say which of the overrides the checkpoint was trained with this command does not give (checkpoints written
+    before they were recorded, and shipped actor files, hold none: nothing to say)."""
+    trained = (contents.get("infos") or {}).get("overrides")
+    if not trained:
+        return
+    missing = overrides_not_repeated(list(trained), list(given), roots)
+    if missing:
+        print(f"[agile] warning: the checkpoint was trained with {len(missing)} override(s) that this command does "
+              f"not give: {'; '.join(missing)}. Add them to {purpose}.", flush=True)
+
+
 def resolve_device(requested: str | None) -> tuple[str, str | None]:
     """(the device, why it is the CPU where the user did not ask for it, else None)."""
     import warp as wp

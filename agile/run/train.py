@@ -288,6 +288,9 @@ def main(argv=None) -> None:
         cli.fail("--init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
     # read before the env is built: a file that is missing or would run code is refused at once
     resume_contents = cli.read_checkpoint(resume_path, args.trust_checkpoint) if resume_path else None
+    if resume_contents is not None:
+        cli.warn_overrides_not_repeated(resume_contents, args.overrides, ("env", "agent"),
+                                        "continue the training it was in")
     if args.init_policy is None and resume_path is None:
         args.init_policy = shipped_init_policy(args.task, agent_cfg)
     if args.init_policy and not os.path.isfile(args.init_policy):
@@ -327,7 +330,7 @@ def main(argv=None) -> None:
         wrap = partial(NanActionVecEnv, share=share, every_iterations=int(every),
                        steps_per_iteration=agent_cfg.num_steps_per_env)
     with cli.quiet_stdout():
-        runner = training_runner(env, agent_cfg, log_dir, wrap)
+        runner = training_runner(env, agent_cfg, log_dir, wrap, overrides=args.overrides)
     runner.logger.git_status_repos = cli.git_repos()
     if log_dir is not None:
         show_progress(runner, args.progress, args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)

@@ -70,18 +70,22 @@ def restore_runner(runner, checkpoint: dict, load_cfg: dict | None = None, stric
 
 class CheckpointingRunner(OnPolicyRunner):
     """rsl-rl's runner, with checkpoints written whole or not at all (a temporary file, then renamed) and holding
-    the env's training state (`infos["env_state"]`, from the env's `training_state()` where it has one), and a
-    logger that does not synchronise with the GPU at every env step (`SyncFreeLogger`)."""
+    the env's training state (`infos["env_state"]`, from the env's `training_state()` where it has one) and the
+    config overrides the run was started with (`infos["overrides"]`: what `agile eval` and a resume compare their
+    own against), and a logger that does not synchronise with the GPU at every env step (`SyncFreeLogger`)."""
 
-    def __init__(self, *args, **kwargs):
+    def __init__(self, *args, overrides: tuple[str, ...] | list[str] = (), **kwargs):
         super().__init__(*args, **kwargs)
         self.logger = rebuilt_logger(SyncFreeLogger, self.logger, self)
+        self.overrides = list(overrides)
+        """The run's "env.<path>=<value>" and "agent.<path>=<value>" overrides, a recipe's included, in order."""
 
     def save(self, path: str, infos: dict | None = None) -> None:
         infos = dict(infos or {})
         env = getattr(self.env, "env", self.env)
         if hasattr(env, "training_state"):
             infos["env_state"] = env.training_state()
+        infos["overrides"] = list(self.overrides)
         saved = self.alg.save()
         saved["iter"] = self.current_learning_iteration
         saved["infos"] = infos
@@ -110,17 +114,18 @@ class CheckpointingDistillationRunner(CheckpointingRunner, DistillationRunner):
     """The same for distillation (rsl-rl's DistillationRunner refuses to learn before a teacher is loaded)."""
 
 
-def training_runner(env, agent_cfg, log_dir: str | None, wrap=None) -> CheckpointingRunner:
+def training_runner(env, agent_cfg, log_dir: str | None, wrap=None, overrides=()) -> CheckpointingRunner:
     """The runner `agile train` trains with (and `agile benchmark` times): the checkpointing runner of the agent
     config over `wrap(env, nan_check_every_steps)` (default `RslRlVecEnvWrapper`), rsl-rl's per-step NaN check moved
-    into the wrapper (`defer_nan_check`), the config's matmul precision set for the process."""
+    into the wrapper (`defer_nan_check`), the config's matmul precision set for the process; `overrides`, the
+    configs' overrides the run was built with, go into every checkpoint."""
     from agile.rl_env.rsl_rl.runner_cfg import set_matmul_precision, to_rsl_rl_dict
     from agile.rl_env.rsl_rl.vecenv_wrapper import RslRlVecEnvWrapper, defer_nan_check
 
     train_cfg = to_rsl_rl_dict(agent_cfg)
     wrapped = (wrap or RslRlVecEnvWrapper)(env, defer_nan_check(train_cfg))
     set_matmul_precision(agent_cfg)
-    return runner_class(agent_cfg)(wrapped, train_cfg, log_dir=log_dir, device=str(env.device))
+    return runner_class(agent_cfg)(wrapped, train_cfg, log_dir=log_dir, device=str(env.device), overrides=overrides)
 
 
 def runner_class(agent_cfg) -> type[CheckpointingRunner]:
