@@ -409,6 +409,14 @@ def test_error_by_command_bins_hand_values():
     assert [row["error"] for row in rows] == pytest.approx([0.2, 0.3, 0.8])
 
 
+def test_error_by_command_tables_read_like_the_docs():
+    from agile.run.eval_breakdowns import error_by_command_tables
+
+    rows = [{"command": [0.0, 0.2], "error": 0.0486, "steps": 25}, {"command": [0.9, None], "error": 0.059, "steps": 75}]
+    assert error_by_command_tables({"height_error_m_by_height_m": rows, "lin_vel_error_mps_by_speed_mps": []}) == (
+        "| height_m | 0-0.2 | 0.9- |\n|---|---|---|\n| height_error_m | 0.049 | 0.059 |\n| share of steps | 25% | 75% |")
+
+
 def test_train_progress_bar_shows_the_eta_and_a_full_block_every_n_iterations(tmp_path):
     code, out, err = run_split("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations",
                                "3", "--device", "cpu", "--log_root", str(tmp_path), "--progress", "bar",

@@ -22,6 +22,7 @@ from agile.run import common as cli
 
 from agile.run import multi_agent
 from agile.run.common import load_policy
+from agile.run.eval_breakdowns import error_by_command_tables
 from agile.run.evaluation import evaluate, evaluate_per_env, summarise, velocity_command_name
 from agile.run.policy import inference_cfg
 from agile.run.sweep_plots import plot_sweep
@@ -180,6 +181,9 @@ def main(argv=None) -> None:
     metrics.update({"task": args.task, "checkpoint": checkpoint, "device": device, "command": args.command,
                     "episode_length_s": args.episode_length_s, "pushes": args.pushes})
     print(json.dumps(metrics, indent=2))
+    tables = error_by_command_tables(metrics["error_by_command"])
+    if tables:
+        print(f"[agile] tracking errors by what was commanded:\n{tables}")
     if args.out:
         with open(args.out, "w") as f:
             json.dump(metrics, f, indent=2)

@@ -41,6 +41,24 @@ class ErrorByCommand:
                 for i, (e, n) in enumerate(zip(self.error_sum.tolist(), self.steps.tolist())) if n > 0]
 
 
+def error_by_command_tables(error_by_command: dict[str, list[dict]]) -> str:
+    """`ErrorByCommand.rows()` under their "<error>_by_<command>" keys, as markdown tables: the mean error per bin of
+    the commanded value and the bin's share of the steps."""
+    tables = []
+    for key, rows in error_by_command.items():
+        if not rows:
+            continue
+        error_name, _, command_name = key.partition("_by_")
+        total = sum(row["steps"] for row in rows)
+        bins = [f"{low:g}-{'' if high is None else f'{high:g}'}" for low, high in (row["command"] for row in rows)]
+        tables.append("\n".join([f"| {command_name} | " + " | ".join(bins) + " |",
+                                  "|---" * (len(rows) + 1) + "|",
+                                  f"| {error_name} | " + " | ".join(f"{row['error']:.3f}" for row in rows) + " |",
+                                  "| share of steps | " + " | ".join(f"{row['steps'] / total:.0%}" for row in rows)
+                                  + " |"]))
+    return "\n\n".join(tables)
+
+
 class FallsByTime:
     """Ended episodes and falls by the time into the episode at which they ended, in bins of `bin_s` seconds:
     whether falls cluster at one moment (every env starts together, so a moment of the episode is a moment of the
