@@ -46,6 +46,21 @@ def test_evaluating_after_the_training_reports_the_first_checkpoint_that_meets_t
     assert result["overrides"][len(RECIPES["fast"])] == "agent.num_steps_per_env=2"
 
 
+def test_several_ranks_train_through_torchrun_on_the_cpu(tmp_path, capsys):
+    """--gpus N with --device cpu: N CPU ranks (gloo) under torchrun, the path of a several-GPU run, and the
+    checkpoints rank 0 wrote evaluated after the training."""
+    out = tmp_path / "ranks"
+    code = main(["--task", "Velocity-T1-v0", "--gpus", "2", "--device", "cpu", "--budget_s", "300",
+                 "--max_iterations", "2", "--num_envs", "2", "--save_interval", "1", "--eval_num_envs", "2",
+                 "--eval_episode_length_s", "0.2", "--evaluate_after_training", "--criterion", "fall_rate=1.0",
+                 "--out", str(out), "agent.num_steps_per_env=2", *FLAT_GROUND_ARGS])
+    result = json.loads(out.with_suffix(".json").read_text())
+    assert code == 0, capsys.readouterr()
+    assert result["gpus"] == 2 and result["evaluations"][0]["iteration"] == 0
+    log = (tmp_path / "ranks.log").read_text()
+    assert "rank 1 of 2 on cpu" in log and "all 2 ranks hold the same weights" in log
+
+
 def test_a_run_without_an_evaluated_checkpoint_writes_no_curve(tmp_path):
     """A budget too short for a first checkpoint: the JSON says so and the curve is skipped (a plot of no metric
     was a matplotlib error after the whole run)."""

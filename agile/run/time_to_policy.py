@@ -44,9 +44,10 @@ def training_command(args, log_root: str) -> list[str]:
         train_args += ["--num_envs", str(args.num_envs)]
     if args.seed is not None:
         train_args += ["--seed", str(args.seed)]
-    if args.gpus > 1:
+    if args.gpus > 1:  # ranks on the host's first GPUs, or on the CPU (gloo) where the run is on the CPU
+        cpu_ranks = ["--device", "cpu"] if args.device == "cpu" else []
         return [sys.executable, "-m", "torch.distributed.run", "--standalone", f"--nproc_per_node={args.gpus}",
-                "-m", "agile.run.train", *train_args, "--distributed"]
+                "-m", "agile.run.train", *train_args, "--distributed", *cpu_ranks]
     return [sys.executable, "-m", "agile.run.train", *train_args, "--device", args.device]
 
 
@@ -233,7 +234,8 @@ def main(argv=None) -> int:
     parser.add_argument("--budget_s", type=float, required=True, help="wall-clock budget of the whole run [s]")
     parser.add_argument("--gpus", type=int, default=1, help="GPUs of this host to train on (torchrun when > 1)")
     parser.add_argument("--num_envs", type=int, default=None, help="training envs per GPU (default: the task's)")
-    parser.add_argument("--device", default=None, help="one-GPU runs: cuda:0 or cpu (default: cuda:0 with a GPU)")
+    parser.add_argument("--device", default=None,
+                        help="cuda:0 or cpu (default: cuda:0 with a GPU); cpu with --gpus N: N CPU ranks (gloo)")
     parser.add_argument("--seed", type=int, default=None, help="training seed (default: the task's)")
     parser.add_argument("--save_interval", type=int, default=50, help="iterations between checkpoints (evaluations)")
     parser.add_argument("--max_iterations", type=int, default=100_000,
@@ -254,7 +256,7 @@ def main(argv=None) -> int:
     args = cli.parse(parser, argv)
     if args.gpus < 1 or args.save_interval < 1 or not args.budget_s > 0:
         cli.fail("--gpus and --save_interval must be at least 1 and --budget_s positive")
-    device, _ = cli.resolve_device(args.device if args.gpus == 1 else "cuda:0")
+    device, _ = cli.resolve_device(args.device if args.gpus == 1 or args.device == "cpu" else "cuda:0")
     args.device = device
     if args.eval_device is not None:
         args.eval_device, _ = cli.resolve_device(args.eval_device)
