@@ -150,7 +150,8 @@ class RewardsCfg:
     ankle_torques = RewTerm(func=mdp.joint_torques_l2, weight=-1.0e-3,
                             params={"asset_cfg": SceneEntityCfg("robot", joint_names=".*_ankle_.*")})
     # -- posture: the default pose once up, still at the target, upright, never upside down or bent forward
-    # (min_command_m None: AGILE's gate, the root height alone; a command gate is being tried, see the term)
+    # (min_command_m None: AGILE's gate, the root height alone; gated on the command too, 0.9 m, the squat went and
+    # the policy stood crouched instead, worse on the bands: docs/stand_up.md)
     joint_deviation_l1 = RewTerm(func=mdp.joint_deviation_if_standing_asked, weight=-0.5,
                                  params={"min_height_m": 0.5, "sensor_name": BASE_HEIGHT_SENSOR,
                                          "asset_cfg": SceneEntityCfg("robot"), "norm": "l1",
