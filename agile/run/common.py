@@ -165,15 +165,11 @@ def overrides_not_repeated(trained: list[str], given: list[str], roots: tuple[st
     """The overrides a checkpoint was trained with (`trained`, under `roots`: "env", "agent") that `given` does not
     repeat with the same value, each as "<override> (here: <the value given, or not set>)". The last override of a
     path counts, as when they are applied."""
-    from agile.utils.config import parse_value
+    from agile.utils.config import parse_value, split_override
 
-    def by_path(overrides: list[str]) -> dict[str, str]:
-        pairs = (item.lstrip("-").partition("=") for item in overrides)
-        return {path: text for path, sep, text in pairs if sep}
-
-    here = by_path(given)
+    here = dict(map(split_override, given))
     missing = []
-    for path, text in by_path(trained).items():
+    for path, text in dict(map(split_override, trained)).items():
         if path.partition(".")[0] not in roots:
             continue
         if path not in here:

@@ -143,8 +143,8 @@ def main(argv=None) -> None:
     if checkpoint is None:
         cli.fail(f"no --checkpoint given and agile ships no policy for {args.task}")
     contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint)
-    cli.warn_overrides_not_repeated(contents, args.overrides, ("env",), "evaluate the task it was trained on")
     env_cfg, agent_cfg, device = cli.load_task(args)
+    cli.warn_overrides_not_repeated(contents, args.overrides, ("env",), "evaluate the task it was trained on")
     env_cfg = inference_cfg(env_cfg)
     if args.command is not None:
         command = getattr(env_cfg.commands, "base_velocity", None)

@@ -158,9 +158,9 @@ def main(argv=None) -> None:
     slider_actions = debug_task and viewer_on and checkpoint is None and not args.sinusoidal
     contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint) if checkpoint and not args.sinusoidal \
         else None
+    env_cfg, agent_cfg, device = cli.load_task(args)
     if contents is not None:
         cli.warn_overrides_not_repeated(contents, args.overrides, ("env",), "play the task it was trained on")
-    env_cfg, agent_cfg, device = cli.load_task(args)
     import torch
     env_cfg = inference_cfg(env_cfg)
     if args.validate_fallen_states:

@@ -142,13 +142,18 @@ def _coerce(current, value, name: str):
     return value
 
 
+def split_override(item: str) -> tuple[str, str]:
+    """(path, value text) of a "root.path=value" override (leading dashes dropped from the path)."""
+    if "=" not in item:
+        raise ConfigError(f"override '{item}' is not of the form path=value")
+    path, text = item.split("=", 1)
+    return path.lstrip("-"), text
+
+
 def apply_overrides(roots: dict[str, Any], overrides: list[str]) -> None:
     """Apply "root.path=value" strings, e.g. roots={"env": env_cfg, "agent": agent_cfg}."""
     for item in overrides:
-        if "=" not in item:
-            raise ConfigError(f"override '{item}' is not of the form path=value")
-        path, text = item.split("=", 1)
-        path = path.lstrip("-")
+        path, text = split_override(item)
         root, _, rest = path.partition(".")
         if root not in roots or not rest:
             raise ConfigError(f"override '{item}' must start with one of {sorted(roots)} followed by a field path")
