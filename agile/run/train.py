@@ -125,11 +125,14 @@ def check_rank_weights(runner, rank) -> None:
     all-reduces every gradient, so a difference means the ranks fell out of step)."""
     import torch
 
+    from agile.rl_env.rsl_rl.captured_ppo import CapturedPPO
     from agile.rl_env.rsl_rl.distributed import gather_digests, weights_digest
 
     digest = weights_digest(runner.alg.save())
     print(f"[agile] rank {rank.rank}: weights sha256 {digest}", flush=True)
     digests = gather_digests(digest)
+    if isinstance(runner.alg, CapturedPPO):
+        runner.alg.release_graph()  # a live graph with NCCL kernels in it makes the destroy below hang
     torch.distributed.destroy_process_group()
     if len(set(digests)) != 1:
         cli.fail(f"the {rank.world_size} ranks ended with different weights (sha256 by rank: {digests})")

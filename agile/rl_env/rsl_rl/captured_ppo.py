@@ -24,8 +24,11 @@ alive, and a captured backward that reaches them makes that stream wait on the c
 (`cudaErrorStreamCaptureImplicit`: the first GPU test, whose rollout kept an autograd record; the runner's
 benchmark, under inference mode, captured its updates).
 
-Select it with `agent.algorithm.class_name=agile.rl_env.rsl_rl.captured_ppo:CapturedPPO`. On a CPU, or across
-several GPUs (the gradients' all-reduce is not captured), it updates as SyncFreePPO does.
+Across several GPUs (`--distributed`) the graph holds the gradients' all-reduce and the KL's (NCCL collectives can
+be captured; the first, eager update creates the communicator): every rank captures at the same update, since the
+settings that trigger a capture are the same on every rank, and each replay meets the other ranks' replays in the
+collectives, as eager steps do. Select it with `agent.algorithm.class_name=agile.rl_env.rsl_rl.captured_ppo:CapturedPPO`.
+On a CPU it updates as SyncFreePPO does.
 """
 
 from __future__ import annotations
@@ -41,7 +44,7 @@ from agile.rl_env.rsl_rl.sync_free_ppo import SyncFreePPO
 class CapturedPPO(SyncFreePPO):
     def __init__(self, *args, device: str = "cpu", **kwargs):
         super().__init__(*args, device=device, **kwargs)
-        self.captures = torch.device(self.device).type == "cuda" and not self.is_multi_gpu
+        self.captures = torch.device(self.device).type == "cuda"
         """Whether updates replay a captured mini-batch step (else each step runs eagerly, as in SyncFreePPO)."""
         if self.captures:  # a graph replays Adam's step only if its step count lives on the device
             self.optimizer = torch.optim.Adam(chain(self.actor.parameters(), self.critic.parameters()),
@@ -116,8 +119,7 @@ class CapturedPPO(SyncFreePPO):
         """Replay the captured mini-batch step for every mini-batch, capturing it first where there is no graph or
         what it baked in changed (`graph_is_current`; capture records, it does not run)."""
         if self.graph is not None and not self.graph_is_current():
-            self.graph = None  # its memory is released once nothing made in it is held any more
-            self.optimizer.zero_grad(set_to_none=True)  # the gradients lived in that memory
+            self.release_graph()
         if self.graph is not None:
             self.rebind_buffers()
         for batch in self.storage.mini_batch_generator(self.num_mini_batches, self.num_learning_epochs):
@@ -129,15 +131,37 @@ class CapturedPPO(SyncFreePPO):
     def _capture(self) -> None:
         # captured on self.stream by the graph's own calls: the torch.cuda.graph context would also empty the
         # allocator's cache, handing the rollout's memory back to CUDA
+        self._ranks_meet()
         graph = torch.cuda.CUDAGraph()
         graph.capture_begin()
         try:
             self.mini_batch_step(self._fixed_batch(), self.sums)
         finally:
             graph.capture_end()
+        self._ranks_meet()
         self.graph, self.captured_key, self.captured_state = graph, self.graph_key(), self.optimizer_state()
         self.captured_buffers = self.model_buffers()
+        if self.captures_made == 0:
+            print(f"[agile] PPO update: the mini-batch step runs as a CUDA graph on {self.device}", flush=True)
         self.captures_made += 1
+
+    def release_graph(self) -> None:
+        """Drop the captured step (the next update captures again). Across GPUs, before
+        `torch.distributed.destroy_process_group()`: NCCL's communicator is not destroyed while a graph holding its
+        kernels lives (the destroy hung on both ranks of a two-H100 training; pytorch/pytorch#115388)."""
+        if self.graph is not None:
+            torch.cuda.synchronize()
+            self.graph = None  # its memory is released once nothing made in it is held any more
+            self.optimizer.zero_grad(set_to_none=True)  # the gradients lived in that memory
+
+    def _ranks_meet(self) -> None:
+        """Across GPUs, every rank's GPU idle and every rank here before a capture starts and after it ends: no rank
+        runs NCCL kernels that wait on a peer while that peer captures or instantiates its graph (a deadlock
+        reported with captured collectives elsewhere). Nothing to do on one GPU."""
+        if self.is_multi_gpu:
+            torch.cuda.synchronize()
+            torch.distributed.barrier()
+            torch.cuda.synchronize()
 
     def model_buffers(self) -> list[tuple[torch.nn.Module, str, torch.Tensor]]:
         """(module, buffer name, tensor) of every buffer of actor and critic, as they are now."""
