@@ -122,3 +122,101 @@ def test_the_episode_extras_are_averaged_over_the_steps_as_rsl_rl_averages_them(
     sync_free.ep_extras = list(floats)
     sync_free.average_episode_extras()
     assert sync_free.ep_extras == floats
+
+
+class RecordingWriter:
+    """What a tensorboard writer is given, in order."""
+
+    def __init__(self):
+        self.scalars = []
+
+    def add_scalar(self, tag, value, step):
+        self.scalars.append((tag, float(value), step))
+
+
+def log_arguments(it: int, action_std: torch.Tensor) -> dict:
+    return dict(it=it, start_it=0, total_it=3, collect_time=0.5, learn_time=0.25,
+                loss_dict={"value": 0.5 + it, "surrogate": torch.tensor(-0.25 * it)}, learning_rate=1e-3,
+                action_std=action_std, rnd_weight=None)
+
+
+def test_the_deferred_log_writes_what_rsl_rl_writes_one_step_later(capsys):
+    """The same scalars and console block as rsl-rl's logger on the same steps; written at the next env step."""
+    generator = torch.Generator().manual_seed(2)
+    plain, sync_free = logger(Logger, 4), logger(SyncFreeLogger, 4)
+    plain.writer, sync_free.writer = RecordingWriter(), RecordingWriter()
+    action_std = torch.tensor([0.3, 0.5])
+    printed = {"plain": "", "sync_free": ""}
+    for it in range(3):
+        for step in range(4):
+            rewards = torch.randn(NUM_ENVS, generator=generator)
+            dones = (torch.rand(NUM_ENVS, generator=generator) < 0.4).long()
+            extras = {"log": {"Episode_Reward/x": torch.rand((), generator=generator),
+                              "Metrics/y": torch.tensor(float(step + it))}}
+            for name, made in (("plain", plain), ("sync_free", sync_free)):
+                made.process_env_step(rewards, dones, extras)
+                printed[name] += capsys.readouterr().out
+        written_before = len(sync_free.writer.scalars)
+        plain.log(**log_arguments(it, action_std))
+        sync_free.log(**log_arguments(it, action_std))
+        printed["plain"] += capsys.readouterr().out
+        assert len(sync_free.writer.scalars) == written_before and sync_free.pending is not None  # not yet
+    sync_free.stop_logging_writer()  # the last one: written when the run stops
+    printed["sync_free"] += capsys.readouterr().out
+    assert sync_free.pending is None
+    assert [(tag, step) for tag, _, step in sync_free.writer.scalars] == [(tag, step) for tag, _, step in plain.writer.scalars]
+    for (tag, mine, _), (_, theirs, _) in zip(sync_free.writer.scalars, plain.writer.scalars):
+        assert mine == pytest.approx(theirs, rel=1e-6, abs=1e-9), tag
+    assert any(tag == "Train/mean_reward" for tag, _, _ in plain.writer.scalars)
+    strip_times = lambda text: [line for line in text.splitlines() if "time" not in line.lower()]  # noqa: E731
+    assert strip_times(printed["sync_free"]) == strip_times(printed["plain"])
+    assert list(sync_free.rewbuffer) == list(plain.rewbuffer)
+
+
+def test_a_pending_log_is_written_before_its_checkpoint_and_keeps_the_next_rollouts_extras():
+    sync_free = logger(SyncFreeLogger, 4)
+    sync_free.writer = RecordingWriter()
+    sync_free.process_env_step(torch.ones(NUM_ENVS), torch.ones(NUM_ENVS, dtype=torch.long),
+                               {"log": {"Metrics/a": torch.tensor(1.0)}})
+    sync_free.log(**log_arguments(0, torch.ones(2)))
+    sync_free.save_model("model_0.pt", 0)  # rsl-rl uploads a checkpoint after its log: the log comes first
+    assert sync_free.pending is None and ("Metrics/a", 1.0, 0) in sync_free.writer.scalars
+    sync_free.ep_extras.append({"Metrics/a": torch.tensor(5.0)})  # a step of the next rollout
+    sync_free.log(**log_arguments(1, torch.ones(2)))
+    sync_free.ep_extras.append({"Metrics/a": torch.tensor(7.0)})
+    sync_free.log(**log_arguments(2, torch.ones(2)))  # two logs without a step between: the first written first
+    assert ("Metrics/a", 5.0, 1) in sync_free.writer.scalars and sync_free.pending is not None
+    sync_free.write_pending_log()
+    assert ("Metrics/a", 7.0, 2) in sync_free.writer.scalars
+
+
+def test_the_progress_loggers_write_the_deferred_block_and_a_title(capsys):
+    plain_text = logger(PlainLogger, 4)
+    plain_text.writer = RecordingWriter()
+    plain_text.block_title = "[agile] group 'g1': robot_0"
+    plain_text.process_env_step(torch.ones(NUM_ENVS), torch.ones(NUM_ENVS, dtype=torch.long), {"log": {}})
+    plain_text.log(**log_arguments(0, torch.ones(2)))
+    assert "Learning iteration" not in capsys.readouterr().out
+    plain_text.write_pending_log()
+    out = capsys.readouterr().out
+    assert out.index("[agile] group 'g1': robot_0") < out.index("Learning iteration 0/3") and "\x1b[" not in out
+
+
+@pytest.mark.gpu
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
+def test_on_the_gpu_the_log_call_does_not_wait_for_the_gpu():
+    made = SyncFreeLogger(log_dir=None, cfg={"num_steps_per_env": 4, "algorithm": {}}, env_cfg={}, num_envs=4096,
+                          is_distributed=False, gpu_world_size=1, gpu_global_rank=0, device="cuda:0")
+    made.writer = RecordingWriter()
+    for _ in range(4):
+        made.process_env_step(torch.ones(4096, device="cuda:0"), torch.ones(4096, dtype=torch.long, device="cuda:0"),
+                              {"log": {"Metrics/a": torch.tensor(1.0, device="cuda:0")}})
+    arguments = log_arguments(0, torch.ones(2, device="cuda:0"))
+    arguments["loss_dict"]["surrogate"] = arguments["loss_dict"]["surrogate"].cuda()
+    torch.cuda.set_sync_debug_mode("error")
+    try:
+        made.log(**arguments)  # a synchronisation here would raise
+    finally:
+        torch.cuda.set_sync_debug_mode("default")
+    made.write_pending_log()
+    assert ("Metrics/a", 1.0, 0) in made.writer.scalars and len(made.rewbuffer) == 4096
