@@ -163,6 +163,11 @@ class SyncFreeLogger(Logger):
 
     def stop_logging_writer(self) -> None:
         self.write_pending_log()
+        # the last log is on disk when `learn` returns: tensorboard writes from a thread, and a write after the caller
+        # removed the log dir re-created the event file in it (a benchmark's temporary dir: "Directory not empty")
+        flush = getattr(self.writer, "flush", None)
+        if flush is not None:
+            flush()
         super().stop_logging_writer()
 
 
