@@ -226,6 +226,7 @@ def test_commands_train_eval_play_and_export_a_multi_agent_task(tmp_path, capsys
     for group in ("g1", "t1"):
         assert (run_dir / group / "model_0.pt").is_file() and (run_dir / "exported" / group / "policy.onnx").is_file()
     assert f"exported policy in {run_dir / 'exported'}/<group>" in out, out  # where the files are
+    assert "Learning iteration 0/1" in out and "\x1b[" not in out  # each group's block, no escape codes in a file
     code, out, err = run("eval", "--checkpoint", str(run_dir), "--num_envs", "2", "--episode_length_s", "0.4",
                          "--out", str(tmp_path / "eval.json"))
     assert code == 0, out + err

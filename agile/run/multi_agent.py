@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 from pathlib import Path
 
 from agile.run import common as cli
@@ -73,6 +74,7 @@ def latest_run(log_root: str, experiment: str, groups) -> str:
 def train(args, env_cfg, agent_cfg, device: str) -> None:
     from agile.marl.runner import MultiAgentRunner
     from agile.rl_env.rsl_rl.checkpoints import restore_runner
+    from agile.rl_env.rsl_rl.progress import show_progress
     from agile.utils.config import ConfigError
 
     init_files = group_files(args.init_policy, agent_cfg.groups, "--init_policy")
@@ -98,8 +100,12 @@ def train(args, env_cfg, agent_cfg, device: str) -> None:
     for group, contents in init_contents.items():
         print(f"[agile] group '{group}': actor initialised from {init_files[group]}")
         restore_runner(runner.runners[group], contents, load_cfg={"actor": True})
+    if args.progress == "bar":
+        print("[agile] --progress bar: a multi-agent run prints each group's block every iteration instead")
     for group_runner in runner.runners.values():
         group_runner.logger.git_status_repos = cli.git_repos()
+        # rsl-rl's block every iteration; into a file without its terminal escape codes
+        show_progress(group_runner, "log", args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
     runner.learn(agent_cfg.max_iterations)
     export_dir = os.path.join(log_dir, "exported")
     export_groups(runner, export_dir)
@@ -190,6 +196,7 @@ def restored_runner(world, agent_cfg, run_dir: str | None, trust: bool):
     """A MultiAgentRunner (no logging) holding every group's newest checkpoint of a training run folder."""
     from agile.marl.runner import MultiAgentRunner
     from agile.rl_env.rsl_rl.checkpoints import restore_runner
+    from agile.rl_env.rsl_rl.progress import show_progress
 
     files = run_checkpoints(run_dir, agent_cfg.groups)
     with cli.quiet_stdout():
