@@ -196,7 +196,6 @@ def restored_runner(world, agent_cfg, run_dir: str | None, trust: bool):
     """A MultiAgentRunner (no logging) holding every group's newest checkpoint of a training run folder."""
     from agile.marl.runner import MultiAgentRunner
     from agile.rl_env.rsl_rl.checkpoints import restore_runner
-    from agile.rl_env.rsl_rl.progress import show_progress
 
     files = run_checkpoints(run_dir, agent_cfg.groups)
     with cli.quiet_stdout():
