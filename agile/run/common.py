@@ -161,34 +161,38 @@ def read_checkpoint(path: str, trust: bool) -> dict:
         fail(str(err))
 
 
-def overrides_not_repeated(trained: list[str], given: list[str], roots: tuple[str, ...]) -> list[str]:
-    """The overrides a checkpoint was trained with (`trained`, under `roots`: "env", "agent") that `given` does not
-    repeat with the same value, each as "<override> (here: <the value given, or not set>)". The last override of a
-    path counts, as when they are applied."""
-    from agile.utils.config import parse_value, split_override
+def overrides_not_repeated(trained: list[str], roots: dict) -> list[str]:
+    """The overrides a checkpoint was trained with (`trained`) under `roots` ({"env": env_cfg, "agent": agent_cfg},
+    the configs this command runs with, its own overrides applied) that those configs do not hold, each as
+    "<override> (here: <the value here>)". One whose value is already the config's (given again, or the task's
+    default since) is not named. The last override of a path counts, as when they are applied."""
+    from agile.utils.config import ConfigError, get_by_path, same_setting, split_override
 
-    here = dict(map(split_override, given))
     missing = []
     for path, text in dict(map(split_override, trained)).items():
-        if path.partition(".")[0] not in roots:
+        root, _, rest = path.partition(".")
+        if root not in roots:
             continue
-        if path not in here:
-            missing.append(f"{path}={text} (here: not set)")
-        elif parse_value(here[path]) != parse_value(text):
-            missing.append(f"{path}={text} (here: {here[path]})")
+        try:
+            here = get_by_path(roots[root], rest, root_name=root)
+        except ConfigError:
+            missing.append(f"{path}={text} (here: no such field)")
+            continue
+        if not same_setting(here, text):
+            missing.append(f"{path}={text} (here: {here!r})")
     return missing
 
 
-def warn_overrides_not_repeated(contents: dict, given: list[str], roots: tuple[str, ...], purpose: str) -> None:
-    """Say which of the overrides the checkpoint was trained with this command does not give (checkpoints written
-    before they were recorded, and shipped actor files, hold none: nothing to say)."""
+def warn_overrides_not_repeated(contents: dict, roots: dict, purpose: str) -> None:
+    """Say which of the overrides the checkpoint was trained with the configs of this command do not hold
+    (checkpoints written before they were recorded, and shipped actor files, hold none: nothing to say)."""
     trained = (contents.get("infos") or {}).get("overrides")
     if not trained:
         return
-    missing = overrides_not_repeated(list(trained), list(given), roots)
+    missing = overrides_not_repeated(list(trained), roots)
     if missing:
         print(f"[agile] warning: the checkpoint was trained with {len(missing)} override(s) that this command does "
-              f"not give: {'; '.join(missing)}. Add them to {purpose}.", flush=True)
+              f"not hold: {'; '.join(missing)}. Add them to {purpose}.", flush=True)
 
 
 def resolve_device(requested: str | None) -> tuple[str, str | None]:

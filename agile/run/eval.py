@@ -144,7 +144,7 @@ def main(argv=None) -> None:
         cli.fail(f"no --checkpoint given and agile ships no policy for {args.task}")
     contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint)
     env_cfg, agent_cfg, device = cli.load_task(args)
-    cli.warn_overrides_not_repeated(contents, args.overrides, ("env",), "evaluate the task it was trained on")
+    cli.warn_overrides_not_repeated(contents, {"env": env_cfg}, "evaluate the task it was trained on")
     env_cfg = inference_cfg(env_cfg)
     if args.command is not None:
         command = getattr(env_cfg.commands, "base_velocity", None)

@@ -160,7 +160,7 @@ def main(argv=None) -> None:
         else None
     env_cfg, agent_cfg, device = cli.load_task(args)
     if contents is not None:
-        cli.warn_overrides_not_repeated(contents, args.overrides, ("env",), "play the task it was trained on")
+        cli.warn_overrides_not_repeated(contents, {"env": env_cfg}, "play the task it was trained on")
     import torch
     env_cfg = inference_cfg(env_cfg)
     if args.validate_fallen_states:

@@ -292,7 +292,7 @@ def main(argv=None) -> None:
     # read before the env is built: a file that is missing or would run code is refused at once
     resume_contents = cli.read_checkpoint(resume_path, args.trust_checkpoint) if resume_path else None
     if resume_contents is not None:
-        cli.warn_overrides_not_repeated(resume_contents, args.overrides, ("env", "agent"),
+        cli.warn_overrides_not_repeated(resume_contents, {"env": env_cfg, "agent": agent_cfg},
                                         "continue the training it was in")
     if args.init_policy is None and resume_path is None:
         args.init_policy = shipped_init_policy(args.task, agent_cfg)

@@ -122,6 +122,29 @@ def set_by_path(cfg, path: str, value, root_name: str = "cfg") -> None:
             walked = f"{walked}.{part}"
 
 
+def get_by_path(cfg, path: str, root_name: str = "cfg"):
+    """`cfg.<path>` (dots; dict keys allowed); ConfigError naming the first part that is not there."""
+    obj, walked = cfg, root_name
+    for part in path.split("."):
+        if isinstance(obj, dict) and part in obj:
+            obj = obj[part]
+        elif dataclasses.is_dataclass(obj) and part in {f.name for f in dataclasses.fields(obj)}:
+            obj = getattr(obj, part)
+        else:
+            raise ConfigError(f"'{walked}' has no field '{part}'")
+        walked = f"{walked}.{part}"
+    return obj
+
+
+def same_setting(current, text: str) -> bool:
+    """Whether the override value `text` would leave a field holding `current` as it is (after the coercion an
+    override gets: 1 for 1.0, a list for a tuple)."""
+    try:
+        return _coerce(current, parse_value(text), "field") == current
+    except ConfigError:  # a value of another type: not the same
+        return False
+
+
 def _coerce(current, value, name: str):
     if current is None or value is None:
         return value
