@@ -254,6 +254,46 @@ def test_the_joint_deviation_gate_on_the_command(env_and_agent):
     assert asked[0] == 0.0 and torch.equal(asked[1:], ungated[1:])
 
 
+def test_error_weighted_bands_draw_more_where_the_tracking_is_worst(env_and_agent):
+    env, _ = env_and_agent
+    from agile.rl_env import mdp
+
+    registered = env.command_manager.get_term("height").cfg
+    assert registered.error_weighted_bands == 0  # AGILE's uniform draws as registered
+    command = mdp.SmoothHeightCommand(dataclasses.replace(registered, error_weighted_bands=4), env)
+    assert command.band_edges_m.tolist() == pytest.approx([0.0, 0.23, 0.46, 0.69, 0.92])
+    # one step: envs settled at 0.1 m (error 0.2), 0.5 m (error 0.04, and a non-finite one that must not count),
+    # one not settled at 0.8 m; the fourth band sees none and keeps its value
+    command.target_height_m[:] = torch.tensor([0.1, 0.5, 0.8])
+    command._update_band_errors(torch.tensor([0.2, 0.04, 0.9]), torch.tensor([True, True, False]))
+    alpha = registered.band_error_ema_alpha
+    assert command.band_error_ema_m.tolist() == pytest.approx(
+        [(1 - alpha) * 0.1 + alpha * 0.2, 0.1, (1 - alpha) * 0.1 + alpha * 0.04, 0.1])
+    command.target_height_m[:] = torch.tensor([0.5, 0.5, 0.8])
+    command._update_band_errors(torch.tensor([float("nan"), 0.04, 0.9]), torch.tensor([True, True, False]))
+    assert torch.isfinite(command.band_error_ema_m).all()
+    # draws: the band with the largest error most often; relaxation draws keep AGILE's share
+    command.band_error_ema_m[:] = torch.tensor([0.01, 0.01, 0.5, 0.01])
+    probabilities = command.band_probabilities()
+    assert probabilities.sum().item() == pytest.approx(1.0) and probabilities[2].item() == pytest.approx(0.597, abs=1e-3)
+    everyone = torch.ones(3, dtype=torch.bool)
+    torch.manual_seed(0)
+    draws = []
+    for _ in range(3000):
+        command._resample(everyone)
+        draws.append(command.drawn_height_m.clone())
+    draws = torch.cat(draws)
+    between = draws[(draws != registered.ranges.height_m[0]) & (draws != registered.ranges.height_m[1])]
+    non_negative = between[between >= 0.0]
+    in_third = ((non_negative >= 0.46) & (non_negative < 0.69)).float().mean().item()
+    assert in_third == pytest.approx(0.597, abs=0.04)
+    assert (between < 0.0).float().mean().item() == pytest.approx(0.5 / 1.42, abs=0.04)
+    for bad, field in ((dict(error_weighted_bands=-1), "error_weighted_bands"),
+                       (dict(error_weighted_bands=4, band_error_ema_alpha=0.0), "band_error_ema_alpha")):
+        with pytest.raises(ValueError, match=field):
+            mdp.SmoothHeightCommand(dataclasses.replace(registered, **bad), env)
+
+
 def test_command_config_errors_name_the_field(env_and_agent):
     env, _ = env_and_agent
     from agile.rl_env import mdp

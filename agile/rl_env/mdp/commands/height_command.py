@@ -63,6 +63,13 @@ class SmoothHeightCommand(CommandTerm):
                              f"{cfg.flat_ratio}")
         if cfg.settle_time_s < 0.0:
             raise ValueError(f"settle_time_s must be >= 0, got {cfg.settle_time_s}")
+        if cfg.error_weighted_bands < 0:
+            raise ValueError(f"error_weighted_bands must be >= 0 (0: AGILE's uniform draws), got {cfg.error_weighted_bands}")
+        if not 0.0 < cfg.band_error_ema_alpha <= 1.0:
+            raise ValueError(f"band_error_ema_alpha must be within (0, 1], got {cfg.band_error_ema_alpha}")
+        if cfg.error_weighted_bands and cfg.ranges.height_m[1] <= 0.0:
+            raise ValueError(f"error_weighted_bands needs heights above 0 m in ranges.height_m, got "
+                             f"{tuple(cfg.ranges.height_m)}")
         self.robot = env.scene[cfg.asset_name]
         ids, names = self.robot.find_bodies(cfg.body_name)
         if len(ids) != 1:
@@ -81,6 +88,12 @@ class SmoothHeightCommand(CommandTerm):
         self.steps_since_resample = torch.zeros(n, dtype=torch.long, device=device)
         self.settle_steps = int(cfg.settle_time_s / env.step_dt)
         self._height_error = self._episode_mean("height_error_m")
+        bands = cfg.error_weighted_bands
+        low_m, high_m = cfg.ranges.height_m
+        self.band_edges_m = torch.linspace(max(low_m, 0.0), high_m, bands + 1, device=device) if bands else None
+        """(N bands + 1,) the bands' edges [m] (with `error_weighted_bands`)."""
+        self.band_error_ema_m = torch.full((bands,), 0.1, device=device) if bands else None
+        """(N bands,) each band's running height error [m] over the settled steps whose command is in it."""
 
     @property
     def command(self) -> torch.Tensor:
@@ -120,6 +133,8 @@ class SmoothHeightCommand(CommandTerm):
         low_m, high_m = cfg.ranges.height_m
         u = torch.rand(n, device=device)
         uniform_m = torch.rand(n, device=device) * (high_m - low_m) + low_m
+        if cfg.error_weighted_bands:
+            uniform_m = torch.where(uniform_m >= 0.0, self._draw_from_bands(n), uniform_m)
         height_m = torch.where(u < cfg.standing_ratio, high_m,
                                torch.where(u < cfg.standing_ratio + cfg.flat_ratio, low_m, uniform_m))
         low_speed, high_speed = cfg.ramp_speed_range_mps
@@ -138,7 +153,33 @@ class SmoothHeightCommand(CommandTerm):
         self.steps_since_resample.add_(1)
         step = self.command_error()  # the one definition of the error, shared with evaluation's bins
         self._height_error.add(step.error, counted=step.counted)
+        if self.cfg.error_weighted_bands:
+            self._update_band_errors(step.error, step.counted)
         super().compute(dt)
+
+    def _update_band_errors(self, error_m: torch.Tensor, counted: torch.Tensor) -> None:
+        """One env step of each band's running error: the mean over the counted envs whose command is in it."""
+        counted = counted & torch.isfinite(error_m)
+        inner_edges = self.band_edges_m[1:-1].contiguous()
+        band = torch.bucketize(self.target_height_m.contiguous(), inner_edges)
+        sums = torch.zeros_like(self.band_error_ema_m).scatter_add_(0, band, torch.where(counted, error_m, 0.0))
+        counts = torch.zeros_like(self.band_error_ema_m).scatter_add_(0, band, counted.float())
+        alpha = self.cfg.band_error_ema_alpha
+        updated = (1.0 - alpha) * self.band_error_ema_m + alpha * sums / counts.clamp(min=1.0)
+        self.band_error_ema_m.copy_(torch.where(counts > 0, updated, self.band_error_ema_m))
+
+    def band_probabilities(self) -> torch.Tensor:
+        """(N bands,) how likely a draw at or above 0 m falls in each band: half uniform, half by running error."""
+        ema = self.band_error_ema_m
+        return 0.5 / len(ema) + 0.5 * ema / ema.sum().clamp(min=1e-9)
+
+    def _draw_from_bands(self, n: int) -> torch.Tensor:
+        """(n,) heights [m]: a band by `band_probabilities`, then uniform within it (on the device: no host sync)."""
+        cdf = torch.cumsum(self.band_probabilities(), dim=0)
+        u = torch.rand(n, device=cdf.device) * cdf[-1]
+        band = torch.searchsorted(cdf, u).clamp(max=len(cdf) - 1)
+        width_m = self.band_edges_m[1] - self.band_edges_m[0]
+        return self.band_edges_m[band] + torch.rand(n, device=cdf.device) * width_m
 
     def _start_episodes(self, env_mask: torch.Tensor) -> None:
         low_m, high_m = self.cfg.ranges.height_m
@@ -172,4 +213,13 @@ class SmoothHeightCommandCfg:
     """Share of resamplings that draw the bottom of the range."""
     settle_time_s: float = 1.0
     """Time after a resampling before tracking counts (`settled`, the height-error metric)."""
+    error_weighted_bands: int = 0
+    """0 (AGILE): the uniform draws are uniform over the range. N > 0: a uniform draw at or above 0 m is replaced by
+    a height in one of N equal bands of [0, top], the band picked with probability half uniform, half in proportion to
+    its running height error (`band_error_ema_m`): more practice where the tracking is worst. Relaxation (negative)
+    draws keep their share. The running errors start equal and are not saved with checkpoints (a resumed run
+    relearns them within about 1 / `band_error_ema_alpha` env steps)."""
+    band_error_ema_alpha: float = 0.01
+    """Weight of one env step's mean error in a band's running error (steps where no settled env is in the band
+    leave it as it is)."""
     ranges: SmoothHeightRangesCfg = field(default_factory=SmoothHeightRangesCfg)
