@@ -48,6 +48,30 @@ def t1_env():
     env.close()
 
 
+@pytest.fixture(scope="session")
+def height_tracking_env_and_agent(tmp_path_factory):
+    """HeightTracking-G1-v0 on CPU (3 envs, 2 terrain rows, capture safety checked), its fallen-state dataset
+    collected into a temporary cache, and its agent config: built once for test_height_tracking.py and
+    test_height_command.py (the tests put back what they change)."""
+    import contextlib
+    import dataclasses
+    import io
+
+    import agile.tasks
+    from agile.rl_env.fallen_states import FallenStateDatasetCfg
+    from agile.run import common as cli
+
+    env_cfg, agent_cfg = agile.tasks.load_cfgs("HeightTracking-G1-v0")
+    env_cfg.num_envs = 3
+    env_cfg.check_capture_safety = True  # every test's steps after the warm-up: nothing the GPU's graph refuses
+    env_cfg.scene.terrain = dataclasses.replace(env_cfg.scene.terrain, num_rows=2, num_cols=3)
+    env_cfg.events.reset_base.params["dataset"] = FallenStateDatasetCfg(
+        cache_dir=str(tmp_path_factory.mktemp("fallen_cache")))
+    with contextlib.redirect_stdout(io.StringIO()):
+        env = cli.make_env("HeightTracking-G1-v0", env_cfg, "cpu")  # collects the fallen-state dataset
+    return env, agent_cfg
+
+
 @pytest.fixture
 def cpu():
     return torch.device("cpu")
