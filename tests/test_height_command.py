@@ -15,18 +15,23 @@ def env_and_agent(height_tracking_env_and_agent):
     return height_tracking_env_and_agent
 
 
+def drawn_heights(command, resamplings: int) -> torch.Tensor:
+    """The heights of `resamplings` resamplings of every env (seeded)."""
+    everyone = torch.ones(command.env.num_envs, dtype=torch.bool)
+    torch.manual_seed(0)
+    draws = []
+    for _ in range(resamplings):
+        command._resample(everyone)
+        draws.append(command.drawn_height_m.clone())
+    return torch.cat(draws)
+
+
 def test_command_range_shares_and_settle_time(env_and_agent):
     env, _ = env_and_agent
     command = env.command_manager.get_term("height")
     low_m, high_m = command.cfg.ranges.height_m
     assert (low_m, high_m) == pytest.approx((-0.5, 0.92))
-    everyone = torch.ones(3, dtype=torch.bool)
-    torch.manual_seed(0)
-    draws = []
-    for _ in range(2000):
-        command._resample(everyone)
-        draws.append(command.drawn_height_m.clone())
-    draws = torch.cat(draws)
+    draws = drawn_heights(command, 2000)
     assert draws.min().item() >= low_m - 1e-6 and draws.max().item() <= high_m + 1e-6
     # 30% stand (the top), 20% lie (the bottom), the rest uniform in between: 6000 draws, ±3 standard errors
     assert (draws == high_m).float().mean().item() == pytest.approx(0.3, abs=0.02)
@@ -94,13 +99,7 @@ def test_error_weighted_bands_draw_more_where_the_tracking_is_worst(env_and_agen
     command.band_error_ema_m[:] = torch.tensor([0.01, 0.01, 0.5, 0.01])
     probabilities = command.band_probabilities()
     assert probabilities.sum().item() == pytest.approx(1.0) and probabilities[2].item() == pytest.approx(0.597, abs=1e-3)
-    everyone = torch.ones(3, dtype=torch.bool)
-    torch.manual_seed(0)
-    draws = []
-    for _ in range(3000):
-        command._resample(everyone)
-        draws.append(command.drawn_height_m.clone())
-    draws = torch.cat(draws)
+    draws = drawn_heights(command, 3000)
     between = draws[(draws != registered.ranges.height_m[0]) & (draws != registered.ranges.height_m[1])]
     non_negative = between[between >= 0.0]
     in_third = ((non_negative >= 0.46) & (non_negative < 0.69)).float().mean().item()
