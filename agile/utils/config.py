@@ -93,47 +93,38 @@ def parse_value(text: str):
         return text
 
 
-def set_by_path(cfg, path: str, value, root_name: str = "cfg") -> None:
-    """Set `cfg.<path>` (dots; dict keys allowed) to `value`, checking that the field exists and the type fits."""
-    parts = path.split(".")
-    obj = cfg
-    walked = root_name
-    for i, part in enumerate(parts):
-        last = i == len(parts) - 1
-        if isinstance(obj, dict):
-            if part not in obj:
-                raise ConfigError(f"'{walked}' has no key '{part}'. Keys: {sorted(obj)}")
-            current = obj[part]
-        elif dataclasses.is_dataclass(obj):
-            names = [f.name for f in dataclasses.fields(obj)]
-            if part not in names:
-                raise ConfigError(f"'{walked}' has no field '{part}'. Fields: {names}")
-            current = getattr(obj, part)
-        else:
-            raise ConfigError(f"'{walked}' is a {type(obj).__name__}, it has no field '{part}'")
-        if last:
-            new = _coerce(current, value, f"{walked}.{part}")
-            if isinstance(obj, dict):
-                obj[part] = new
-            else:
-                setattr(obj, part, new)
-        else:
-            obj = current
-            walked = f"{walked}.{part}"
+def _child(obj, part: str, walked: str):
+    """`obj`'s field or key `part`; ConfigError naming `walked` (the path so far) and what is there instead."""
+    if isinstance(obj, dict):
+        if part not in obj:
+            raise ConfigError(f"'{walked}' has no key '{part}'. Keys: {sorted(obj)}")
+        return obj[part]
+    if dataclasses.is_dataclass(obj):
+        names = [f.name for f in dataclasses.fields(obj)]
+        if part not in names:
+            raise ConfigError(f"'{walked}' has no field '{part}'. Fields: {names}")
+        return getattr(obj, part)
+    raise ConfigError(f"'{walked}' is a {type(obj).__name__}, it has no field '{part}'")
 
 
 def get_by_path(cfg, path: str, root_name: str = "cfg"):
     """`cfg.<path>` (dots; dict keys allowed); ConfigError naming the first part that is not there."""
     obj, walked = cfg, root_name
     for part in path.split("."):
-        if isinstance(obj, dict) and part in obj:
-            obj = obj[part]
-        elif dataclasses.is_dataclass(obj) and part in {f.name for f in dataclasses.fields(obj)}:
-            obj = getattr(obj, part)
-        else:
-            raise ConfigError(f"'{walked}' has no field '{part}'")
-        walked = f"{walked}.{part}"
+        obj, walked = _child(obj, part, walked), f"{walked}.{part}"
     return obj
+
+
+def set_by_path(cfg, path: str, value, root_name: str = "cfg") -> None:
+    """Set `cfg.<path>` (dots; dict keys allowed) to `value`, checking that the field exists and the type fits."""
+    parent_path, _, name = path.rpartition(".")
+    parent = get_by_path(cfg, parent_path, root_name) if parent_path else cfg
+    walked = f"{root_name}.{parent_path}" if parent_path else root_name
+    new = _coerce(_child(parent, name, walked), value, f"{walked}.{name}")
+    if isinstance(parent, dict):
+        parent[name] = new
+    else:
+        setattr(parent, name, new)
 
 
 def same_setting(current, text: str) -> bool:

@@ -1,7 +1,8 @@
 """Training progress as one line with an ETA (tqdm) instead of rsl-rl's 40-line block every iteration.
 
-rsl-rl's `Logger.log` writes tensorboard scalars and prints a block per iteration (`SyncFreeLogger.write_log`, one env step after the iteration). Both loggers here build on
-`SyncFreeLogger` (no host synchronisation per env step). `ProgressLogger` keeps
+rsl-rl's `Logger.log` writes tensorboard scalars and prints a block per iteration (here in `write_log`, one env step
+after the iteration). Both loggers here build on `SyncFreeLogger` (no host synchronisation per env step).
+`ProgressLogger` keeps
 everything it writes and shows a bar instead: iterations done of the run's, the rate, the time left, and the mean
 reward and episode length; rsl-rl's full block still appears every `full_log_every` iterations (0: never), above
 the bar.

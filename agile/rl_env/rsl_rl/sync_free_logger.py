@@ -88,13 +88,20 @@ class SyncFreeLogger(Logger):
         self.steps_held += 1
 
     def flush_ended_episodes(self) -> None:
-        """Move the held steps' ended episodes into rsl-rl's windows (one host synchronisation)."""
-        if self.steps_held == 0:
-            return
-        ended = self.ended[:self.steps_held]
-        self.rewbuffer.extend(self.ended_return[:self.steps_held][ended].tolist())
-        self.lenbuffer.extend(self.ended_length_steps[:self.steps_held][ended].tolist())
+        """Move the held steps' ended episodes into rsl-rl's windows now (one host synchronisation)."""
+        if self.steps_held:
+            self.keep_episodes(*HostCopy(self.take_held_steps()).wait())
+
+    def take_held_steps(self) -> list[torch.Tensor]:
+        """(ended, return, length) of the steps held since the last flush, (steps, N) each; the rows are free again."""
+        held = slice(0, self.steps_held)
         self.steps_held = 0
+        return [self.ended[held], self.ended_return[held], self.ended_length_steps[held]]
+
+    def keep_episodes(self, ended: torch.Tensor, returns: torch.Tensor, lengths: torch.Tensor) -> None:
+        """Host copies of held steps into rsl-rl's windows: the ended episodes, step by step, env by env."""
+        self.rewbuffer.extend(returns[ended].tolist())
+        self.lenbuffer.extend(lengths[ended].tolist())
 
     def average_episode_extras(self) -> None:
         """Replace the held steps' extras by their means over the steps, where every step holds the same keys as
@@ -117,9 +124,7 @@ class SyncFreeLogger(Logger):
         if self.writer is None:  # another rank of a multi-GPU run: rsl-rl's log writes nothing there
             return
         self.average_episode_extras()
-        held = slice(0, self.steps_held)
-        episodes = [self.ended[held], self.ended_return[held], self.ended_length_steps[held]]
-        self.steps_held = 0
+        episodes = self.take_held_steps()
         extras, self.ep_extras = self.ep_extras, []
         extra_tensors = [(step, key) for step, values in enumerate(extras) for key, value in values.items()
                          if isinstance(value, torch.Tensor)]
@@ -135,9 +140,7 @@ class SyncFreeLogger(Logger):
             return
         pending, self.pending = self.pending, None
         host = pending.copy.wait()
-        ended, returns, lengths = host[:3]
-        self.rewbuffer.extend(returns[ended].tolist())
-        self.lenbuffer.extend(lengths[ended].tolist())
+        self.keep_episodes(*host[:3])
         values = iter(host[3:])
         extras = [dict(step) for step in pending.extras]
         for step, key in pending.extra_tensors:

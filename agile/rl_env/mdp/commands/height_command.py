@@ -92,6 +92,7 @@ class SmoothHeightCommand(CommandTerm):
         low_m, high_m = cfg.ranges.height_m
         self.band_edges_m = torch.linspace(max(low_m, 0.0), high_m, bands + 1, device=device) if bands else None
         """(N bands + 1,) the bands' edges [m] (with `error_weighted_bands`)."""
+        self.band_inner_edges_m = self.band_edges_m[1:-1].contiguous() if bands else None
         self.band_error_ema_m = torch.full((bands,), 0.1, device=device) if bands else None
         """(N bands,) each band's running height error [m] over the settled steps whose command is in it."""
 
@@ -160,8 +161,7 @@ class SmoothHeightCommand(CommandTerm):
     def _update_band_errors(self, error_m: torch.Tensor, counted: torch.Tensor) -> None:
         """One env step of each band's running error: the mean over the counted envs whose command is in it."""
         counted = counted & torch.isfinite(error_m)
-        inner_edges = self.band_edges_m[1:-1].contiguous()
-        band = torch.bucketize(self.target_height_m.contiguous(), inner_edges)
+        band = torch.bucketize(self.target_height_m, self.band_inner_edges_m)
         sums = torch.zeros_like(self.band_error_ema_m).scatter_add_(0, band, torch.where(counted, error_m, 0.0))
         counts = torch.zeros_like(self.band_error_ema_m).scatter_add_(0, band, counted.float())
         alpha = self.cfg.band_error_ema_alpha
