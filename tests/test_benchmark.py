@@ -1,7 +1,10 @@
 """benchmark.py's timing helpers on CPU (the figures themselves come from the GPU machine)."""
 
+import argparse
+
+import pytest
 import torch
-from agile.run.benchmark import restarter, slowest_world_solver_iterations, time_physics
+from agile.run.benchmark import restarter, slowest_world_solver_iterations, time_physics, time_training_timeline
 
 
 def test_raw_physics_restarts_from_the_state_it_was_given(t1_env):
@@ -25,3 +28,27 @@ def test_slowest_world_solver_iterations_lie_within_the_cap_and_restart_puts_the
     per_world = sim.solver_iterations()
     assert per_world.shape == (t1_env.num_envs,)
     assert int(per_world.min()) >= 1 and int(per_world.max()) <= cap
+
+
+@pytest.mark.gpu
+def test_the_gpu_timeline_splits_an_iteration_into_its_phases(tmp_path):
+    """The unsynchronised timeline: every phase took GPU time, and the phases, measured on the GPU's clock from the
+    first event to the last, add up to no more than the host's wall time of the same loop (plus the event's
+    resolution)."""
+    from agile.rl_env import ManagerBasedRLEnv
+    from agile.rl_env.rsl_rl.checkpoints import training_runner
+    from agile.run import common as cli
+
+    args = argparse.Namespace(task="Velocity-T1-v0", num_envs=64, device="cuda:0", seed=None, overrides=[])
+    env_cfg, agent_cfg, device = cli.load_task(args)
+    env = ManagerBasedRLEnv(env_cfg, task_name="Velocity-T1-v0", device=device)
+    runner = training_runner(env, agent_cfg, str(tmp_path))
+    runner.learn(1)
+    timeline = time_training_timeline(runner, runner.env, iterations=2)
+    phases = ("act_s", "env_step_s", "storage_s", "returns_s", "update_s")
+    assert all(timeline[phase] > 0.0 for phase in phases), timeline
+    assert sum(timeline[phase] for phase in phases) <= timeline["loop_s"] + 1e-3, timeline
+
+
+def test_the_gpu_timeline_is_for_cuda_only(t1_env):
+    assert time_training_timeline(runner=None, env=t1_env, iterations=1) is None

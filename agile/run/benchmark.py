@@ -9,8 +9,8 @@ its ratio to raw physics, PPO training (rollout + update, with the training's ru
 `agile train` runs them, logging into a temporary folder) and its ratio, startup (gym.make to the first step
 done), device memory in use, the share of the env step spent in the explicit actuators (raw physics with and
 without them), the solver iterations of the slowest world under raw physics and under env.step (untimed),
-and where a training iteration's time goes (env steps, policy inference and rollout storage, PPO update), and the
-peak demand on the solver's constraint rows (njmax) and contacts. For a task on a terrain, the raw
+and where a training iteration's time goes (env steps, policy inference and rollout storage, PPO update: each phase
+synchronised, in host time; on CUDA also unsynchronised, on the GPU's clock), and the peak demand on the solver's constraint rows (njmax) and contacts. For a task on a terrain, the raw
 physics of the same robot on flat ground (no terrain, contact sensor or height rays) is measured first in a
 separate world, and the env.step and training rates are also given as ratios to it.
 """
@@ -147,6 +147,51 @@ def time_training_phases(runner, env, iterations: int) -> dict:
     return {phase: value / iterations for phase, value in seconds.items()}
 
 
+def time_training_timeline(runner, env, iterations: int) -> dict | None:
+    """Seconds per PPO iteration of each phase on the GPU's own clock, nothing synchronised: CUDA events recorded
+    between the phases of rsl-rl's loop (act, env step, storage and the logger's step, returns, update) and read once
+    at the end. A phase's time runs from the end of the one before on the GPU, so it includes the GPU's waits for the
+    host to launch it: where `time_training_phases` (synchronised, host time) and this differ, the host was the
+    bottleneck, or hid behind the GPU. `loop_s`: the host's wall time of the loop; None off CUDA."""
+    import torch
+
+    if not str(env.device).startswith("cuda"):
+        return None
+    alg, steps = runner.alg, runner.cfg["num_steps_per_env"]
+    phases = ("act_s", "env_step_s", "storage_s", "returns_s", "update_s")
+    marks: list[tuple[str, torch.cuda.Event]] = []
+
+    def mark(phase: str) -> None:
+        event = torch.cuda.Event(enable_timing=True)
+        event.record()
+        marks.append((phase, event))
+
+    obs = env.get_observations()
+    synchronize(env.device)
+    start = time.perf_counter()
+    mark("start")
+    for _ in range(iterations):
+        with torch.inference_mode():
+            for _ in range(steps):
+                actions = alg.act(obs)
+                mark("act_s")
+                obs, rewards, dones, extras = env.step(actions)
+                mark("env_step_s")
+                alg.process_env_step(obs, rewards, dones, extras)
+                runner.logger.process_env_step(rewards, dones, extras, None)
+                mark("storage_s")
+            alg.compute_returns(obs)
+            mark("returns_s")
+        alg.update()
+        mark("update_s")
+    synchronize(env.device)
+    loop_s = time.perf_counter() - start
+    seconds = dict.fromkeys(phases, 0.0)
+    for (_, before), (phase, after) in zip(marks, marks[1:]):
+        seconds[phase] += before.elapsed_time(after) / 1e3
+    return {**{phase: value / iterations for phase, value in seconds.items()}, "loop_s": loop_s / iterations}
+
+
 def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterations: int) -> dict:
     import torch
 
@@ -196,6 +241,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
         iteration_s = (time.perf_counter() - start) / train_iterations
     train = n * agent_cfg.num_steps_per_env / iteration_s
     phases = time_training_phases(runner, runner.env, train_iterations)
+    timeline = time_training_timeline(runner, runner.env, train_iterations)
     memory = device_memory_used_gb(env.device)
     # the demand on the solver's fixed buffers over everything above (random actions, falls, training)
     capacity = env.sim.capacity
@@ -211,6 +257,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
               "solver_iterations_slowest_world_raw": raw_iterations,
               "solver_iterations_slowest_world_env_step": env_step_iterations,
               "iteration_s": iteration_s, **{f"iteration_{phase}": value for phase, value in phases.items()},
+              "iteration_gpu_timeline": timeline,
               **buffers}
     if flat_raw is not None:
         result.update(flat_raw_physics=flat_raw, env_step_ratio_to_flat=full / flat_raw,
@@ -264,6 +311,15 @@ def main(argv=None) -> None:
     for r in rows:
         print(f"{r['num_envs']:>7} {r['iteration_s']:>10.3f} {r['iteration_env_steps_s']:>10.3f} "
               f"{r['iteration_policy_and_storage_s']:>8.3f} {r['iteration_update_s']:>8.3f}")
+    timelines = [r for r in rows if r["iteration_gpu_timeline"]]
+    if timelines:
+        print("\nthe same phases on the GPU's clock, unsynchronised (s per iteration; a phase includes the GPU's wait "
+              "for the host to launch it), and the host's wall time of that loop")
+        print(f"{'envs':>7} {'act':>8} {'env step':>9} {'storage':>8} {'returns':>8} {'update':>8} {'loop':>8}")
+        for r in timelines:
+            t = r["iteration_gpu_timeline"]
+            print(f"{r['num_envs']:>7} {t['act_s']:>8.3f} {t['env_step_s']:>9.3f} {t['storage_s']:>8.3f} "
+                  f"{t['returns_s']:>8.3f} {t['update_s']:>8.3f} {t['loop_s']:>8.3f}")
     print("\nsolver iterations per physics step of the slowest world (a GPU step waits for it), untimed")
     print(f"{'envs':>7} {'raw physics':>12} {'env.step':>10}")
     for r in rows:
