@@ -47,8 +47,6 @@ class MultiAgentRunner:
             runner_dir = None if log_dir is None else os.path.join(log_dir, name)
             self.views[name] = view
             self.runners[name] = CheckpointingRunner(view, to_rsl_rl_dict(group.runner), log_dir=runner_dir, device=device)
-            # rsl-rl's report does not name the group
-            self.runners[name].logger.block_title = f"[agile] group '{name}': {', '.join(view.agent_names)}"
         self.device = device
         self.current_learning_iteration = 0
 
@@ -87,6 +85,8 @@ class MultiAgentRunner:
                 start = time.time()
                 loss_dict = runner.alg.update()
                 runner.current_learning_iteration = it
+                if runner.logger.writer is not None:  # rsl-rl's report does not name the group
+                    print(f"[agile] group '{g}': {', '.join(self.views[g].agent_names)}")
                 runner.logger.log(it=it, start_it=start_it, total_it=total_it, collect_time=collect_time,
                                   learn_time=time.time() - start, loss_dict=loss_dict,
                                   learning_rate=runner.alg.learning_rate,

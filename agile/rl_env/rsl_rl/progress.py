@@ -1,8 +1,7 @@
 """Training progress as one line with an ETA (tqdm) instead of rsl-rl's 40-line block every iteration.
 
-rsl-rl's `Logger.log` writes tensorboard scalars and prints a block per iteration (here in `write_log`, one env step
-after the iteration). Both loggers here build on `SyncFreeLogger` (no host synchronisation per env step).
-`ProgressLogger` keeps
+rsl-rl's `Logger.log` writes tensorboard scalars and prints a block per iteration. Both loggers here build on
+`SyncFreeLogger` (no host synchronisation per env step). `ProgressLogger` keeps
 everything it writes and shows a bar instead: iterations done of the run's, the rate, the time left, and the mean
 reward and episode length; rsl-rl's full block still appears every `full_log_every` iterations (0: never), above
 the bar.
@@ -29,10 +28,10 @@ ANSI_ESCAPE = re.compile(r"\x1b\[[0-9;]*m")
 class PlainLogger(SyncFreeLogger):
     """rsl-rl's logger printing its block without terminal escape codes: for output redirected to a file."""
 
-    def write_log(self, **kwargs) -> None:
+    def log(self, **kwargs) -> None:
         block = io.StringIO()
         with contextlib.redirect_stdout(block):
-            super().write_log(**kwargs)
+            super().log(**kwargs)
         if block.getvalue():
             print(ANSI_ESCAPE.sub("", block.getvalue()), end="", flush=True)
 
@@ -55,10 +54,10 @@ class ProgressLogger(SyncFreeLogger):
         progress.total_iterations = total_iterations
         return progress
 
-    def write_log(self, **kwargs) -> None:
+    def log(self, **kwargs) -> None:
         block = io.StringIO()
         with contextlib.redirect_stdout(block):
-            super().write_log(**kwargs)
+            super().log(**kwargs)
         if self.writer is None:  # another GPU's process of a multi-GPU run: rank 0 shows the progress
             return
         it = kwargs["it"]
