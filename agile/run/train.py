@@ -317,6 +317,7 @@ def main(argv=None) -> None:
     from agile.rl_env.rsl_rl.checkpoints import restore_runner, training_runner
     from agile.rl_env.rsl_rl.progress import show_progress
     from agile.rl_env.rsl_rl.distillation import load_teacher
+    from agile.rl_env.rsl_rl.reward_normalization import starts_normalizing
 
     env = cli.make_env(args.task, env_cfg, device, use_cache=not args.no_cache)
     print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
@@ -361,7 +362,7 @@ def main(argv=None) -> None:
                                           args.init_action_std)
         restore_runner(runner, start, load_cfg={policy_obs_set(agent_cfg): True})
     iterations, warmup = agent_cfg.max_iterations, 0
-    if args.init_policy:
+    if args.init_policy or starts_normalizing(agent_cfg, resume_contents):
         warmup = min(getattr(agent_cfg, "critic_warmup_iterations", 0), iterations)
     if warmup > 0:
         warm_up_critic(runner, warmup, agent_cfg.critic_warmup_learning_rate)

@@ -40,6 +40,30 @@ class RnnModelCfg(MlpModelCfg):
 
 
 @configclass
+class RewardNormalizationCfg:
+    """AGILE's `reward_normalization_cfg` (its defaults): see `agile.rl_env.rsl_rl.reward_normalization`."""
+
+    decay: float = 0.999
+    """Per env step, of the running mean and variance of one step's rewards."""
+    epsilon: float = 1.0e-2
+    return_scale_decay: float | None = 0.999
+    """Per rollout, of the return-scale correction; None: no correction (the i.i.d. scale alone)."""
+    outlier_threshold: float | None = 10.0
+    """Rewards beyond this many standard deviations from the running mean are clipped; None: no clipping."""
+
+    def check(self) -> None:
+        for name in ("decay", "return_scale_decay"):
+            value = getattr(self, name)
+            if value is not None and not 0.0 <= value < 1.0:
+                raise ConfigError(f"reward_normalization.{name}: {value}; give a factor in [0, 1)")
+        if not self.epsilon > 0.0:
+            raise ConfigError(f"reward_normalization.epsilon: {self.epsilon}; give a positive number")
+        if self.outlier_threshold is not None and not self.outlier_threshold > 0.0:
+            raise ConfigError(f"reward_normalization.outlier_threshold: {self.outlier_threshold}; give a positive "
+                              f"number of standard deviations, or None")
+
+
+@configclass
 class PpoAlgorithmCfg:
     class_name: str = "PPO"
     learning_rate: float = 1.0e-3
@@ -60,6 +84,9 @@ class PpoAlgorithmCfg:
     symmetry_cfg: dict | None = None
     """RSL-RL symmetry extension, e.g. {"use_data_augmentation": True, "use_mirror_loss": False,
     "mirror_loss_coeff": 0.0, "data_augmentation_func": "agile.rl_env.mdp.symmetry:lr_mirror"}."""
+    reward_normalization: RewardNormalizationCfg | None = None
+    """AGILE's reward normalisation (`agile.rl_env.rsl_rl.reward_normalization`): the stored rewards scaled towards
+    unit-variance returns. None: raw rewards (rsl-rl's PPO)."""
 
 
 @configclass
@@ -149,7 +176,8 @@ class PpoRunnerCfg(RunnerCommonCfg):
     critic_warmup_iterations: int = 0
     """A run that starts from a trained actor (--init_policy, or `init_policy_task`) first trains only the critic
     for this many iterations, the actor's weights held: a fresh critic's advantages are noise, and PPO updates
-    on them took a distilled student from 2% to 70% falls within 10 iterations (H200, measured)."""
+    on them took a distilled student from 2% to 70% falls within 10 iterations (H200, measured). So does a run that
+    resumes with reward normalisation from a checkpoint trained without it (its critic's returns change scale)."""
     critic_warmup_learning_rate: float = 1.0e-3
     """The learning rate of the warm-up; PPO then starts at `algorithm.learning_rate`. A fine-tuning run starts
     its actor small (Adam's first steps move every weight by about the learning rate), but a critic trained at
@@ -229,6 +257,21 @@ RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "teacher_task",
                     "critic_warmup_iterations", "critic_warmup_learning_rate", "float32_matmul_precision")
 
 
+def with_reward_normalization(algorithm: dict) -> None:
+    """Where the algorithm config asks for reward normalisation, its class becomes the configured PPO class with
+    `RewardNormalization` in front (a class object: rsl-rl takes one as `class_name`); else the key goes (rsl-rl's
+    PPO takes no such argument)."""
+    if algorithm["reward_normalization"] is None:
+        algorithm.pop("reward_normalization")
+        return
+    from rsl_rl.utils import resolve_callable
+
+    from agile.rl_env.rsl_rl.reward_normalization import normalizing, reward_normalization_cfg
+
+    reward_normalization_cfg(algorithm["reward_normalization"])  # a bad field is named now, not in the runner
+    algorithm["class_name"] = normalizing(resolve_callable(algorithm["class_name"]))
+
+
 def to_rsl_rl_dict(cfg: RunnerCfg) -> dict:
     """The train_cfg dict of `rsl_rl.runners.OnPolicyRunner` (keys of ours that it does not know removed)."""
     if is_distillation(cfg):
@@ -248,6 +291,8 @@ def to_rsl_rl_dict(cfg: RunnerCfg) -> dict:
     d = to_dict(cfg)
     for key in RUNNER_ONLY_KEYS:
         d.pop(key, None)
+    if "reward_normalization" in d["algorithm"]:
+        with_reward_normalization(d["algorithm"])
     for model in ("student", "teacher") if is_distillation(cfg) else ("actor", "critic"):
         if d[model].get("distribution_cfg") is None:
             d[model].pop("distribution_cfg", None)
