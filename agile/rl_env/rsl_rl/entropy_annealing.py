@@ -19,19 +19,7 @@ from __future__ import annotations
 import torch
 from rsl_rl.algorithms import PPO
 
-from agile.rl_env.rsl_rl.runner_cfg import EntropyAnnealingCfg
-from agile.utils.config import ConfigError
-
-
-def entropy_annealing_cfg(values: dict) -> EntropyAnnealingCfg:
-    """The checked config from its dict (as the runner's config dict carries it)."""
-    fields = list(EntropyAnnealingCfg.__dataclass_fields__)
-    unknown = sorted(set(values) - set(fields))
-    if unknown:
-        raise ConfigError(f"entropy_annealing: unknown {unknown}; its fields: {fields}")
-    cfg = EntropyAnnealingCfg(**values)
-    cfg.check()
-    return cfg
+from agile.rl_env.rsl_rl.runner_cfg import EntropyAnnealingCfg, checked_cfg
 
 
 class EntropyAnnealing:
@@ -41,7 +29,7 @@ class EntropyAnnealing:
     def __init__(self, *args, entropy_annealing: dict | None = None, max_episode_length: int | None = None,
                  **kwargs):
         super().__init__(*args, **kwargs)
-        self.annealing = entropy_annealing_cfg(entropy_annealing or {})
+        self.annealing = checked_cfg(EntropyAnnealingCfg, entropy_annealing or {}, "entropy_annealing")
         if max_episode_length is None or max_episode_length < 1:
             raise ValueError(f"max_episode_length: {max_episode_length}; the env's episode length in steps")
         self.max_episode_length = int(max_episode_length)

@@ -30,21 +30,10 @@ from functools import cache
 import torch
 from torch import nn
 
-from agile.rl_env.rsl_rl.runner_cfg import RewardNormalizationCfg
+from agile.rl_env.rsl_rl.runner_cfg import RewardNormalizationCfg, checked_cfg
 from agile.utils.config import ConfigError
 
 STATE_KEY = "reward_normalizer_state_dict"
-
-
-def reward_normalization_cfg(values: dict) -> RewardNormalizationCfg:
-    """The checked config from its dict (as the runner's config dict carries it)."""
-    fields = list(RewardNormalizationCfg.__dataclass_fields__)
-    unknown = sorted(set(values) - set(fields))
-    if unknown:
-        raise ConfigError(f"reward_normalization: unknown {unknown}; its fields: {fields}")
-    cfg = RewardNormalizationCfg(**values)
-    cfg.check()
-    return cfg
 
 
 class ReturnVarianceNormalizer(nn.Module):
@@ -101,7 +90,7 @@ class RewardNormalization:
 
     def __init__(self, *args, reward_normalization: dict | None = None, **kwargs):
         super().__init__(*args, **kwargs)
-        cfg = reward_normalization_cfg(reward_normalization or {})
+        cfg = checked_cfg(RewardNormalizationCfg, reward_normalization or {}, "reward_normalization")
         self.reward_normalizer = ReturnVarianceNormalizer(cfg, self.gamma).to(self.device)
 
     def process_env_step(self, obs, rewards, dones, extras) -> None:

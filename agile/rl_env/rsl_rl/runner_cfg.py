@@ -39,6 +39,18 @@ class RnnModelCfg(MlpModelCfg):
     rnn_num_layers: int = 1
 
 
+def checked_cfg(cls, values: dict, name: str):
+    """An algorithm extension's config (`cls`, a dataclass with `check()`) from the dict the runner's config carries
+    under `name`: an unknown field is named with the valid ones, a bad value by `check()`."""
+    fields = list(cls.__dataclass_fields__)
+    unknown = sorted(set(values) - set(fields))
+    if unknown:
+        raise ConfigError(f"{name}: unknown {unknown}; its fields: {fields}")
+    cfg = cls(**values)
+    cfg.check()
+    return cfg
+
+
 @configclass
 class RewardNormalizationCfg:
     """AGILE's `reward_normalization_cfg` (its defaults): see `agile.rl_env.rsl_rl.reward_normalization`."""
@@ -266,9 +278,9 @@ def with_reward_normalization(algorithm: dict) -> None:
         return
     from rsl_rl.utils import resolve_callable
 
-    from agile.rl_env.rsl_rl.reward_normalization import normalizing, reward_normalization_cfg
+    from agile.rl_env.rsl_rl.reward_normalization import normalizing
 
-    reward_normalization_cfg(algorithm["reward_normalization"])  # a bad field is named now, not in the runner
+    checked_cfg(RewardNormalizationCfg, algorithm["reward_normalization"], "reward_normalization")  # named now
     algorithm["class_name"] = normalizing(resolve_callable(algorithm["class_name"]))
 
 
