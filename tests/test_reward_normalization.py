@@ -13,11 +13,12 @@ from tensordict import TensorDict
 
 from agile.rl_env.rsl_rl import PpoAlgorithmCfg, to_rsl_rl_dict
 from agile.rl_env.rsl_rl.entropy_annealing import EntropyAnnealingPPO
-from agile.rl_env.rsl_rl.reward_normalization import (STATE_KEY, ReturnVarianceNormalizer, RewardNormalization,
-                                                      normalizing)
-from agile.rl_env.rsl_rl.runner_cfg import RewardNormalizationCfg, with_reward_normalization
+from agile.rl_env.rsl_rl.extended_ppo import extended
+from agile.rl_env.rsl_rl.reward_normalization import STATE_KEY, ReturnVarianceNormalizer, RewardNormalization
+from agile.rl_env.rsl_rl.runner_cfg import RewardNormalizationCfg, with_extensions
 from agile.rl_env.rsl_rl.sync_free_ppo import SyncFreePPO
 from agile.utils.config import ConfigError
+from ppo_fakes import ppo_algorithm
 
 NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS = 64, 8, 5, 2
 GAMMA = 0.99
@@ -59,29 +60,15 @@ def test_the_return_correction_moves_towards_unit_spread_of_the_scaled_returns()
     assert float(untouched.return_correction) == 1.0
 
 
-class FakeEnv:
-    num_envs = NUM_ENVS
-    num_actions = NUM_ACTIONS
-    max_episode_length = 100
-
-
-def runner_dict(class_name: str, reward_normalization: dict | None) -> dict:
+def runner_algorithm_dict(class_name: str, reward_normalization: dict | None) -> dict:
     algorithm = {"class_name": class_name, "gamma": GAMMA, "reward_normalization": reward_normalization}
-    with_reward_normalization(algorithm)
-    return {"obs_groups": {"actor": ["policy"], "critic": ["policy"]}, "num_steps_per_env": NUM_STEPS,
-            "multi_gpu": None,
-            "actor": {"class_name": "MLPModel", "hidden_dims": [16], "activation": "elu",
-                      "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": 1.0}},
-            "critic": {"class_name": "MLPModel", "hidden_dims": [16], "activation": "elu"},
-            "algorithm": algorithm}
+    with_extensions(algorithm)
+    return algorithm
 
 
 def make_algorithm(class_name: str = "PPO", reward_normalization: dict | None = None):
-    obs = TensorDict({"policy": torch.zeros(NUM_ENVS, OBS_DIM)}, batch_size=[NUM_ENVS])
-    cfg = runner_dict(class_name, reward_normalization)
-    torch.manual_seed(0)
-    return cfg["algorithm"]["class_name"].construct_algorithm(obs, FakeEnv(), cfg, "cpu") \
-        if isinstance(cfg["algorithm"]["class_name"], type) else PPO.construct_algorithm(obs, FakeEnv(), cfg, "cpu")
+    return ppo_algorithm(class_name, NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS, gamma=GAMMA,
+                         reward_normalization=reward_normalization)
 
 
 def rollout(algorithm, generator: torch.Generator) -> list[torch.Tensor]:
@@ -102,20 +89,19 @@ def test_any_ppo_class_stores_scaled_rewards(base):
             SyncFreePPO: "agile.rl_env.rsl_rl.sync_free_ppo:SyncFreePPO"}[base]
     algorithm = make_algorithm(path, {"decay": 0.5, "return_scale_decay": None})
     assert isinstance(algorithm, base) and isinstance(algorithm, RewardNormalization)
-    assert type(algorithm).__name__ == f"RewardNormalized{base.__name__}"
+    assert type(algorithm).__name__ == f"RewardNormalization{base.__name__}"
     raw = rollout(algorithm, torch.Generator().manual_seed(1))
     stored = algorithm.storage.rewards.squeeze(-1)
     # every stored step is its raw rewards divided by one scale (that step's), well under the raw 50 +- 20
     ratios = stored / torch.stack(raw)
     assert torch.allclose(ratios, ratios[:, :1].expand_as(ratios), rtol=1e-5)
     assert float(stored.abs().max()) < 10.0
-    assert normalizing(base) is normalizing(base)  # one class per base
+    assert extended(base, (RewardNormalization,)) is type(algorithm)  # one class per combination
     algorithm.update()
 
 
 def test_without_the_setting_rsl_rl_gets_its_own_class_and_no_extra_argument():
-    cfg = runner_dict("PPO", None)
-    assert cfg["algorithm"] == {"class_name": "PPO", "gamma": GAMMA}
+    assert runner_algorithm_dict("PPO", None) == {"class_name": "PPO", "gamma": GAMMA}
     algorithm = make_algorithm("PPO", None)
     assert type(algorithm) is PPO
 
@@ -153,7 +139,7 @@ def test_a_registered_config_passes_the_setting_through_to_rsl_rl():
                                            ({"decya": 0.9}, "decya")])
 def test_a_bad_setting_is_named(values, field):
     with pytest.raises(ConfigError, match=field):
-        runner_dict("PPO", values)
+        runner_algorithm_dict("PPO", values)
 
 
 def test_the_algorithm_config_has_no_normalisation_unless_asked():

@@ -1,14 +1,14 @@
 """RSL-RL integration: VecEnv wrapper and runner configs."""
 
 from agile.rl_env.rsl_rl.runner_cfg import (AnnealedPpoAlgorithmCfg, DistillationAlgorithmCfg, DistillationRunnerCfg,
-                                            DistributionCfg, EntropyAnnealingCfg, MlpModelCfg, PpoAlgorithmCfg,
+                                            DistributionCfg, EntropyAnnealingCfg, L2C2Cfg, MlpModelCfg, PpoAlgorithmCfg,
                                             PpoRunnerCfg, RewardNormalizationCfg, RnnModelCfg, RunnerCfg,
                                             is_distillation, make_recurrent,
                                             policy_model_cfg, policy_obs_set, policy_state_key, to_rsl_rl_dict)
 from agile.rl_env.rsl_rl.vecenv_wrapper import RslRlVecEnvWrapper, flatten_groups
 
 __all__ = ["AnnealedPpoAlgorithmCfg", "DistillationAlgorithmCfg", "DistillationRunnerCfg", "DistributionCfg",
-           "EntropyAnnealingCfg", "MlpModelCfg", "PpoAlgorithmCfg", "PpoRunnerCfg", "RewardNormalizationCfg",
+           "EntropyAnnealingCfg", "L2C2Cfg", "MlpModelCfg", "PpoAlgorithmCfg", "PpoRunnerCfg", "RewardNormalizationCfg",
            "RnnModelCfg", "RslRlVecEnvWrapper",
            "RunnerCfg", "flatten_groups", "is_distillation", "make_recurrent", "policy_model_cfg", "policy_obs_set",
            "policy_state_key", "to_rsl_rl_dict"]

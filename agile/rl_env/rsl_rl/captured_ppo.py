@@ -38,7 +38,7 @@ from itertools import chain
 import torch
 from rsl_rl.storage import RolloutStorage
 
-from agile.rl_env.rsl_rl.sync_free_ppo import SyncFreePPO
+from agile.rl_env.rsl_rl.sync_free_ppo import LOSS_SUMS, SyncFreePPO
 
 
 class CapturedPPO(SyncFreePPO):
@@ -64,8 +64,8 @@ class CapturedPPO(SyncFreePPO):
         self.captured_buffers: list[tuple[torch.nn.Module, str, torch.Tensor]] = []
         """(module, buffer name, the tensor the graph reads) of every buffer of actor and critic at capture."""
         self.captures_made = 0
-        self.sums = torch.zeros(4, device=self.device)
-        """value, surrogate, entropy and symmetry losses summed over an update's mini-batches (written by the graph)."""
+        self.sums = torch.zeros(LOSS_SUMS, device=self.device)
+        """The losses summed over an update's mini-batches (written by the graph; `sync_free_ppo.LOSS_SUMS`)."""
 
     def update(self) -> dict[str, float]:
         if not self.captures:

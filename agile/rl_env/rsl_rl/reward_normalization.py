@@ -19,13 +19,12 @@ ones; the logs keep the raw rewards (the runner gives the logger its own). The s
 Each GPU of a multi-GPU run keeps its own statistics. Everything stays on the device (no host synchronisation).
 
 Choose it with the PPO config's `reward_normalization=RewardNormalizationCfg(...)`; `to_rsl_rl_dict` then gives the
-runner the configured PPO class with `RewardNormalization` in front (`normalizing`).
+runner the configured PPO class with `RewardNormalization` in front (`extended_ppo.extended`).
 """
 
 from __future__ import annotations
 
 import math
-from functools import cache
 
 import torch
 from torch import nn
@@ -86,7 +85,7 @@ class ReturnVarianceNormalizer(nn.Module):
 
 class RewardNormalization:
     """PPO whose stored rewards are scaled by a `ReturnVarianceNormalizer` (see the module). A mixin: in front of a
-    PPO class in the bases (`normalizing(base)` makes the class)."""
+    PPO class in the bases."""
 
     def __init__(self, *args, reward_normalization: dict | None = None, **kwargs):
         super().__init__(*args, **kwargs)
@@ -120,12 +119,3 @@ def starts_normalizing(agent_cfg, checkpoint: dict | None) -> bool:
     fresh critic)."""
     normalizes = getattr(getattr(agent_cfg, "algorithm", None), "reward_normalization", None) is not None
     return checkpoint is not None and normalizes and STATE_KEY not in checkpoint
-
-
-@cache
-def normalizing(base: type) -> type:
-    """`base` (a PPO class) with `RewardNormalization` in front; one class per base."""
-    if issubclass(base, RewardNormalization):
-        return base
-    return type(f"RewardNormalized{base.__name__}", (RewardNormalization, base),
-                {"__doc__": f"{base.__name__} with AGILE's reward normalisation (agile.rl_env.rsl_rl.reward_normalization)."})

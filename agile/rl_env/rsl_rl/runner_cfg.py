@@ -76,6 +76,19 @@ class RewardNormalizationCfg:
 
 
 @configclass
+class L2C2Cfg:
+    """AGILE's `l2c2_cfg` (its HeightTracking, PickPlace and G1 runners: 1.0 and 0.1): see `agile.rl_env.rsl_rl.l2c2`."""
+
+    lambda_actor: float = 1.0
+    lambda_critic: float = 0.1
+
+    def check(self) -> None:
+        for name in ("lambda_actor", "lambda_critic"):
+            if not getattr(self, name) >= 0.0:
+                raise ConfigError(f"l2c2.{name}: {getattr(self, name)}; give a weight >= 0")
+
+
+@configclass
 class PpoAlgorithmCfg:
     class_name: str = "PPO"
     learning_rate: float = 1.0e-3
@@ -99,6 +112,9 @@ class PpoAlgorithmCfg:
     reward_normalization: RewardNormalizationCfg | None = None
     """AGILE's reward normalisation (`agile.rl_env.rsl_rl.reward_normalization`): the stored rewards scaled towards
     unit-variance returns. None: raw rewards (rsl-rl's PPO)."""
+    l2c2: L2C2Cfg | None = None
+    """AGILE's L2C2 smoothness term (`agile.rl_env.rsl_rl.l2c2`; needs class_name SyncFreePPO or CapturedPPO). None:
+    none."""
 
 
 @configclass
@@ -269,19 +285,31 @@ RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "teacher_task",
                     "critic_warmup_iterations", "critic_warmup_learning_rate", "float32_matmul_precision")
 
 
-def with_reward_normalization(algorithm: dict) -> None:
-    """Where the algorithm config asks for reward normalisation, its class becomes the configured PPO class with
-    `RewardNormalization` in front (a class object: rsl-rl takes one as `class_name`); else the key goes (rsl-rl's
-    PPO takes no such argument)."""
-    if algorithm["reward_normalization"] is None:
-        algorithm.pop("reward_normalization")
-        return
+EXTENSIONS = {"reward_normalization": (RewardNormalizationCfg, "agile.rl_env.rsl_rl.reward_normalization:RewardNormalization"),
+              "l2c2": (L2C2Cfg, "agile.rl_env.rsl_rl.l2c2:L2C2")}
+"""The PPO settings that add a mixin in front of the configured class: key -> (its config, the mixin), outermost
+first."""
+
+
+def with_extensions(algorithm: dict) -> None:
+    """The algorithm config's class becomes the configured PPO class with the mixins of the extensions it sets in
+    front (a class object: rsl-rl takes one as `class_name`); the keys of those it leaves None go (rsl-rl's PPO
+    takes no such argument). A bad field is named here, before any runner is built."""
     from rsl_rl.utils import resolve_callable
 
-    from agile.rl_env.rsl_rl.reward_normalization import normalizing
+    from agile.rl_env.rsl_rl.extended_ppo import extended
 
-    checked_cfg(RewardNormalizationCfg, algorithm["reward_normalization"], "reward_normalization")  # named now
-    algorithm["class_name"] = normalizing(resolve_callable(algorithm["class_name"]))
+    mixins = []
+    for key, (cfg_class, mixin) in EXTENSIONS.items():
+        if key not in algorithm:
+            continue
+        if algorithm[key] is None:
+            algorithm.pop(key)
+            continue
+        checked_cfg(cfg_class, algorithm[key], key)
+        mixins.append(resolve_callable(mixin))
+    if mixins:
+        algorithm["class_name"] = extended(resolve_callable(algorithm["class_name"]), tuple(mixins))
 
 
 def to_rsl_rl_dict(cfg: RunnerCfg) -> dict:
@@ -303,8 +331,7 @@ def to_rsl_rl_dict(cfg: RunnerCfg) -> dict:
     d = to_dict(cfg)
     for key in RUNNER_ONLY_KEYS:
         d.pop(key, None)
-    if "reward_normalization" in d["algorithm"]:
-        with_reward_normalization(d["algorithm"])
+    with_extensions(d["algorithm"])
     for model in ("student", "teacher") if is_distillation(cfg) else ("actor", "critic"):
         if d[model].get("distribution_cfg") is None:
             d[model].pop("distribution_cfg", None)

@@ -20,6 +20,10 @@ import torch
 from rsl_rl.algorithms import PPO
 from torch import nn
 
+LOSS_SUMS = 5
+"""The update's losses summed on the device: value, surrogate, entropy, symmetry, the extra term
+(`regularization_loss`)."""
+
 MIN_LEARNING_RATE = 1.0e-5
 MAX_LEARNING_RATE = 1.0e-2
 """rsl-rl's bounds of the adaptive learning rate."""
@@ -40,8 +44,16 @@ class SyncFreePPO(PPO):
         self.optimizer = torch.optim.Adam(chain(self.actor.parameters(), self.critic.parameters()),
                                           lr=self.learning_rate_t, fused=True)
 
+    regularization_name: str | None = None
+    """The name the mini-batch step's extra loss term is logged under (a mixin's, e.g. "l2c2"); None: none."""
+
+    def regularization_loss(self, batch) -> torch.Tensor | None:
+        """An extra term of the mini-batch step's loss, weighted, computed inside its autocast (a mixin's: L2C2);
+        None: none."""
+        return None
+
     def update(self) -> dict[str, float]:
-        sums = torch.zeros(4, device=self.device)  # value, surrogate, entropy, symmetry
+        sums = torch.zeros(LOSS_SUMS, device=self.device)
         for batch in self.storage.mini_batch_generator(self.num_mini_batches, self.num_learning_epochs):
             self.mini_batch_step(batch, sums)
         return self.finish_update(sums)
@@ -87,6 +99,11 @@ class SyncFreePPO(PPO):
             elif self.symmetry:  # logged only: its forward pass needs no autograd record
                 with torch.no_grad():
                     symmetry_loss = self.symmetry.compute_loss(self.actor, batch, original_batch_size)
+            regularization = self.regularization_loss(batch)
+            if regularization is not None:
+                loss = loss + regularization
+            else:
+                regularization = torch.zeros((), device=self.device)
         self.optimizer.zero_grad()
         loss.backward()
         if self.is_multi_gpu:
@@ -95,7 +112,7 @@ class SyncFreePPO(PPO):
         nn.utils.clip_grad_norm_(self.critic.parameters(), self.max_grad_norm)
         self.optimizer.step()
         sums += torch.stack((value_loss.detach(), surrogate_loss.detach(), entropy.mean().detach(),
-                             symmetry_loss.detach().float()))
+                             symmetry_loss.detach().float(), regularization.detach().float()))
 
     def finish_update(self, sums: torch.Tensor) -> dict[str, float]:
         """After the mini-batches: the observation normalisers learn the rollout, the mean losses are read (the
@@ -108,6 +125,8 @@ class SyncFreePPO(PPO):
         losses = {"value": means[0], "surrogate": means[1], "entropy": means[2]}
         if self.symmetry:
             losses["symmetry"] = means[3]
+        if self.regularization_name is not None:
+            losses[self.regularization_name] = means[4]
         self.storage.clear()
         return losses
 
