@@ -15,9 +15,10 @@ class FakeVecEnv:
         self.num_envs, self.num_actions, self.max_episode_length = num_envs, num_actions, max_episode_length
 
 
-def ppo_algorithm(class_name: str, num_envs: int, num_steps: int, obs_dim: int, num_actions: int, **settings):
+def ppo_algorithm(class_name: str, num_envs: int, num_steps: int, obs_dim: int, num_actions: int,
+                  device: str = "cpu", **settings):
     """The PPO class `class_name` with the algorithm `settings` (extensions composed as `to_rsl_rl_dict` does), tiny
-    MLPs, built by rsl-rl's own construction on the CPU."""
+    MLPs, built by rsl-rl's own construction on `device`."""
     algorithm = {"class_name": class_name, **settings}
     with_extensions(algorithm)
     cfg = {"obs_groups": {"actor": ["policy"], "critic": ["policy"]}, "num_steps_per_env": num_steps,
@@ -26,9 +27,9 @@ def ppo_algorithm(class_name: str, num_envs: int, num_steps: int, obs_dim: int, 
                      "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": 1.0}},
            "critic": {"class_name": "MLPModel", "hidden_dims": [16], "activation": "elu"},
            "algorithm": algorithm}
-    obs = TensorDict({"policy": torch.zeros(num_envs, obs_dim)}, batch_size=[num_envs])
+    obs = TensorDict({"policy": torch.zeros(num_envs, obs_dim, device=device)}, batch_size=[num_envs], device=device)
     torch.manual_seed(0)
     from rsl_rl.utils import resolve_callable
 
     return resolve_callable(algorithm["class_name"]).construct_algorithm(obs, FakeVecEnv(num_envs, num_actions), cfg,
-                                                                         "cpu")
+                                                                         device)

@@ -94,3 +94,24 @@ def test_a_ppo_class_without_the_hook_is_refused_naming_both():
 def test_a_bad_setting_is_named(values, field):
     with pytest.raises(ConfigError, match=field):
         make(values)
+
+
+@pytest.mark.gpu
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
+def test_the_captured_update_replays_the_term_with_new_draws():
+    """CapturedPPO records the mini-batch step, the L2C2 term's random pairs included, and replays it: the replayed
+    updates log a term that changes with the draws and the rollout."""
+    algorithm = ppo_algorithm("agile.rl_env.rsl_rl.captured_ppo:CapturedPPO", NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS,
+                              device="cuda:0", l2c2={})
+    terms = []
+    for _ in range(4):  # the first update is eager, the second captures, the rest replay
+        for t in range(NUM_STEPS):
+            obs = TensorDict({"policy": torch.randn(NUM_ENVS, OBS_DIM, device="cuda:0") * (t + 1)},
+                             batch_size=[NUM_ENVS], device="cuda:0")
+            algorithm.act(obs)
+            algorithm.process_env_step(obs, torch.randn(NUM_ENVS, device="cuda:0"),
+                                       torch.zeros(NUM_ENVS, dtype=torch.long, device="cuda:0"), {})
+        algorithm.compute_returns(obs)
+        terms.append(algorithm.update()["l2c2"])
+    assert algorithm.graph is not None and all(term > 0.0 for term in terms)
+    assert len(set(terms[2:])) == 2  # replays draw anew
