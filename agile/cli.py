@@ -4,7 +4,8 @@
     agile show Velocity-T1-v0                    # the resolved MDP (builds the env on CPU with 1 env)
     agile diff Velocity-T1-v0 Velocity-G1-History-v0   # the config paths whose values differ
     agile train --task Velocity-T1-v0 ...        # train|play|eval|eval_all|export|benchmark|sim2mujoco|
-                                                 # plot_learning_curve|time_to_policy|record|fingerprint:
+                                                 # plot_learning_curve|time_to_policy|pick_checkpoint|
+                                                 # record|fingerprint:
                                                  # agile/run/<name>.py, in this process
 
 `agile <command> --help` shows that command's options.
@@ -19,7 +20,7 @@ import sys
 import yaml
 
 FORWARDED = ("train", "play", "eval", "eval_all", "export", "benchmark", "sim2mujoco", "plot_learning_curve",
-             "time_to_policy", "record", "fingerprint")
+             "time_to_policy", "pick_checkpoint", "record", "fingerprint")
 """Subcommands that run `agile.run.<name>.main` with the arguments that follow."""
 EXIT_USAGE = 2
 

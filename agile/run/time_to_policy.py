@@ -62,8 +62,13 @@ def newest_checkpoint(log_root: str) -> tuple[int, Path] | None:
     return found[-1] if found else None
 
 
-def evaluator(args, device: str):
-    """A function (checkpoint path -> eval.py's metrics) over one env in the task's evaluation setting, built once."""
+def evaluator(task: str, overrides: list[str], device: str, num_envs: int | None = None,
+              episode_length_s: float | None = None, seed: int | None = None):
+    """A function (checkpoint path -> eval.py's metrics) over one env in the task's evaluation setting (the catalogue's
+    env count and episode length unless given, `overrides` as trained, pushes off), built once. With `seed`, every
+    evaluation starts from it: each checkpoint meets the same starts and commands."""
+    import torch
+
     import agile.tasks
     from agile.rl_env.rsl_rl.checkpoints import load_checkpoint
     from agile.run.evaluation import evaluate
@@ -72,17 +77,19 @@ def evaluator(args, device: str):
     from agile.tasks.catalogue import task_entry
     from agile.utils.config import apply_overrides
 
-    settings = task_entry(args.task).eval_settings
-    env_cfg, agent_cfg = agile.tasks.load_cfgs(args.task)
-    apply_overrides({"env": env_cfg, "agent": agent_cfg}, [*args.overrides, *settings.get("overrides", [])])
-    env_cfg.num_envs = args.eval_num_envs or settings["num_envs"]
-    env_cfg.episode_length_s = args.eval_episode_length_s or settings["episode_length_s"]
+    settings = task_entry(task).eval_settings
+    env_cfg, agent_cfg = agile.tasks.load_cfgs(task)
+    apply_overrides({"env": env_cfg, "agent": agent_cfg}, [*overrides, *settings.get("overrides", [])])
+    env_cfg.num_envs = num_envs or settings["num_envs"]
+    env_cfg.episode_length_s = episode_length_s or settings["episode_length_s"]
     env_cfg = inference_cfg(env_cfg)
     disable_interval_events(env_cfg)
-    env = cli.make_env(args.task, env_cfg, device)
+    env = cli.make_env(task, env_cfg, device)
 
     def run(path: Path) -> dict:
         policy = load_policy(load_checkpoint(str(path)), env, agent_cfg)
+        if seed is not None:
+            torch.manual_seed(seed)
         return evaluate(env, policy, settings["num_episodes"])
 
     return run
@@ -128,7 +135,9 @@ class CheckpointJudge:
 
         written_s = path.stat().st_mtime - self.start_epoch  # when the training wrote it
         if self.evaluate is None:
-            self.evaluate = evaluator(self.args, self.device)
+            args = self.args
+            self.evaluate = evaluator(args.task, args.overrides, self.device, args.eval_num_envs,
+                                      args.eval_episode_length_s)
         metrics = self.evaluate(path)
         missed = missed_criteria(metrics, self.criteria, self.minima)
         row = {"iteration": iteration, "wall_s": round(written_s, 1), "met": not missed, "missed": missed,

@@ -8,6 +8,7 @@ defaults add the base-height error)."""
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 
 from agile.tasks import load_cfgs, pretrained_policy, registered_tasks, task_kind, task_spec
@@ -127,6 +128,32 @@ def missed_criteria(metrics: dict, criteria: dict, minima: dict | None = None) -
             elif not within(value, bound):  # NaN misses
                 missed.append(f"{name} {value:.4g} {sign} {bound:g}")
     return missed
+
+
+def worst_margin(metrics: dict, criteria: dict, minima: dict | None = None) -> float:
+    """How far the metrics are from their criteria, as one number: the largest of value / maximum over the maxima
+    (each breakdown bin with steps, where a maximum bounds a breakdown) and of minimum / value over the minima. At most
+    1 where every criterion is met (as `missed_criteria` judges); inf for a metric not measured, NaN or past a zero
+    bound."""
+    episode_metrics = metrics.get("episode_metrics", metrics.get(LEGACY_EPISODE_METRICS_KEY, {}))
+    breakdowns = metrics.get("error_by_command", {})
+
+    def ratio(numerator, denominator) -> float:
+        if numerator is None or denominator is None or not numerator == numerator or not denominator == denominator:
+            return math.inf
+        if denominator == 0.0:
+            return 0.0 if numerator == 0.0 else math.inf
+        return numerator / denominator
+
+    ratios = []
+    for name, bound in criteria.items():
+        if name in breakdowns:
+            ratios += [ratio(row["error"], bound) for row in breakdowns[name] if row["steps"] > 0]
+        else:
+            ratios.append(ratio(metrics.get(name, episode_metrics.get(name)), bound))
+    for name, bound in (minima or {}).items():
+        ratios.append(ratio(bound, metrics.get(name, episode_metrics.get(name))))
+    return max(ratios, default=0.0)
 
 
 def _bin_label(command: list) -> str:

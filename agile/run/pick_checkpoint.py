@@ -1,0 +1,119 @@
+"""Which checkpoint of a training run to keep: its checkpoints evaluated against the task's criteria on the same
+episodes, and the best named.
+
+    agile pick_checkpoint --task HeightTracking-G1-v0 --run logs/rsl_rl/height_tracking_g1/<run> --every 100
+    agile pick_checkpoint --task Velocity-T1-v0 --run <run> --every 50 --out picked.json env.scene.terrain=null
+
+A policy that drifts as it trains (a posture split moving from one thousand iterations to the next) is best kept at
+its best checkpoint, not its last. Every model_<iteration>.pt of the run whose iteration is a multiple of --every, and
+the newest, is evaluated in the task's evaluation setting (the catalogue's env count and episode length unless given,
+the registered start rows, pushes off; the overrides the run trained with are given after the options), one env built
+once and reseeded before each checkpoint, so that every checkpoint meets the same starts and commands. A checkpoint's
+score is its worst margin to the criteria (`agile/tasks/catalogue.py`: value / maximum, per band where a maximum bounds
+a breakdown such as HeightTracking's commanded-height bands; at most 1 where every criterion is met); the best is the
+lowest. Prints a table; --out writes the rows as JSON.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from agile.run import common as cli
+
+
+def run_checkpoints(run_dir: Path, every: int) -> list[tuple[int, Path]]:
+    """(iteration, path) of the run's model_<iteration>.pt whose iteration is a multiple of `every`, and the newest."""
+    found = sorted((int(p.stem.split("_")[1]), p) for p in run_dir.glob("model_*.pt")
+                   if p.stem.split("_")[1].isdigit())
+    picked = [(it, p) for it, p in found if it % every == 0]
+    if found and found[-1] not in picked:
+        picked.append(found[-1])
+    return picked
+
+
+def judge(metrics: dict, criteria: dict, minima: dict) -> dict:
+    """The row of one evaluation: the criteria it misses, its score, and the metrics the criteria name."""
+    from agile.tasks.catalogue import missed_criteria, worst_margin
+
+    episode_metrics = metrics.get("episode_metrics", {})
+    named = {name: metrics.get(name, episode_metrics.get(name)) for name in [*criteria, *minima]
+             if name not in metrics.get("error_by_command", {})}
+    bands = {name: [round(row["error"], 4) for row in rows if row["steps"] > 0]
+             for name, rows in metrics.get("error_by_command", {}).items() if name in criteria}
+    missed = missed_criteria(metrics, criteria, minima)
+    return {"met": not missed, "score": worst_margin(metrics, criteria, minima), "missed": missed, **named, **bands}
+
+
+def table(rows: list[dict]) -> str:
+    keys = [k for k in rows[0] if k not in ("iteration", "met", "score", "missed", "checkpoint")]
+
+    def cell(value) -> str:
+        if isinstance(value, list):
+            return " / ".join(f"{v:.3f}" for v in value)
+        return "-" if value is None else f"{value:.4g}"
+
+    lines = ["| iteration | score | met | " + " | ".join(keys) + " |", "|" + "---|" * (len(keys) + 3)]
+    lines += [f"| {r['iteration']} | {r['score']:.3f} | {'yes' if r['met'] else 'no'} | "
+              + " | ".join(cell(r.get(k)) for k in keys) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> None:
+    parser = cli.new_parser(__doc__)
+    parser.add_argument("--task", required=True, help="the registered task the run trained")
+    parser.add_argument("--run", required=True, help="the training run's folder (its model_<iteration>.pt files)")
+    parser.add_argument("--every", type=int, default=100, help="evaluate the checkpoints at multiples of this many "
+                        "iterations (and the newest)")
+    parser.add_argument("--device", default=None, help="cuda:0 or cpu (default: cuda:0 when a GPU is present)")
+    parser.add_argument("--num_envs", type=int, default=None, help="envs per evaluation (default: the task's)")
+    parser.add_argument("--episode_length_s", type=float, default=None, help="episode length (default: the task's)")
+    parser.add_argument("--seed", type=int, default=0, help="the seed every evaluation starts from")
+    parser.add_argument("--out", default=None, help="write the rows (and the best) as JSON here")
+    parser.add_argument("overrides", nargs="*", help=cli.OVERRIDE_HELP)
+    args = cli.parse(parser, argv)
+    if args.every < 1:
+        cli.fail(f"--every must be >= 1, got {args.every}")
+    run_dir = Path(args.run)
+    if not run_dir.is_dir():
+        cli.fail(f"--run {args.run}: no such folder")
+    checkpoints = run_checkpoints(run_dir, args.every)
+    if not checkpoints:
+        cli.fail(f"--run {args.run}: no model_<iteration>.pt in it")
+
+    from agile.run.time_to_policy import evaluator
+    from agile.tasks import registered_tasks
+    from agile.tasks.catalogue import task_entry
+    from agile.utils.config import ConfigError
+
+    if args.task not in registered_tasks():
+        cli.fail(f"unknown task '{args.task}'. Registered tasks: {', '.join(registered_tasks())}")
+    entry = task_entry(args.task)
+    if not entry.criteria and not entry.minima:
+        cli.fail(f"{args.task} has no evaluation criteria in the catalogue (kind '{entry.kind}'): nothing to pick by")
+    device, fallback = cli.resolve_device(args.device)
+    if fallback is not None:
+        print(f"[agile] {fallback}: evaluating on the CPU")
+    try:
+        evaluate = evaluator(args.task, args.overrides, device, args.num_envs, args.episode_length_s, seed=args.seed)
+    except ConfigError as err:
+        cli.fail(str(err))
+    rows = []
+    for iteration, path in checkpoints:
+        row = {"iteration": iteration, "checkpoint": str(path), **judge(evaluate(path), entry.criteria, entry.minima)}
+        rows.append(row)
+        print(f"[agile] iteration {iteration}: score {row['score']:.3f}" + (" (criteria met)" if row["met"] else ""),
+              flush=True)
+    best = min(rows, key=lambda r: r["score"])
+    print(table(rows))
+    print(f"[agile] best: iteration {best['iteration']} ({best['checkpoint']}), score {best['score']:.3f}"
+          + (", every criterion met" if best["met"] else f"; misses {'; '.join(best['missed'])}"))
+    if args.out:
+        with open(args.out, "w") as f:
+            json.dump({"task": args.task, "run": str(run_dir), "every": args.every, "seed": args.seed,
+                       "criteria": entry.criteria, "minima": entry.minima, "best": best["iteration"], "rows": rows},
+                      f, indent=2)
+
+
+if __name__ == "__main__":
+    main()
