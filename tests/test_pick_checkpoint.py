@@ -58,7 +58,10 @@ def test_the_best_checkpoint_of_a_run_whose_last_one_is_worse(tmp_path, capsys):
     assert [row["iteration"] for row in result["rows"]] == [100, 200] and result["best"] == 100
     first, last = result["rows"]
     assert first["score"] < last["score"] and set(first) >= {"fall_rate", "lin_vel_error_mps", "missed", "met"}
-    assert "best: iteration 100" in capsys.readouterr().out
+    # 4 envs x 2 s on the CPU rank the checkpoints; whether one passes is for the task's own setting on a GPU
+    assert result["criteria_judged"] is False and first["met"] is None
+    out = capsys.readouterr().out
+    assert "best: iteration 100" in out and "not judged" in out
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -106,7 +106,7 @@ def test_without_the_setting_rsl_rl_gets_its_own_class_and_no_extra_argument():
     assert type(algorithm) is PPO
 
 
-def test_the_statistics_survive_a_checkpoint_and_an_old_checkpoint_starts_them_afresh(capsys):
+def test_the_statistics_survive_a_checkpoint_and_an_old_checkpoint_starts_them_afresh():
     trained = make_algorithm("PPO", {"decay": 0.5})
     rollout(trained, torch.Generator().manual_seed(2))
     saved = trained.save()
@@ -119,7 +119,7 @@ def test_the_statistics_survive_a_checkpoint_and_an_old_checkpoint_starts_them_a
     old = {key: value for key, value in saved.items() if key != STATE_KEY}
     fresh = make_algorithm("PPO", {"decay": 0.5})
     fresh.load(old, None, True)
-    assert float(fresh.reward_normalizer.var) == 1.0 and "start afresh" in capsys.readouterr().out
+    assert float(fresh.reward_normalizer.var) == 1.0
 
 
 def test_a_registered_config_passes_the_setting_through_to_rsl_rl():

@@ -11,7 +11,8 @@ the registered start rows, pushes off; the overrides the run trained with are gi
 once and reseeded before each checkpoint, so that every checkpoint meets the same starts and commands. A checkpoint's
 score is its worst margin to the criteria (`agile/tasks/catalogue.py`: value / maximum, per band where a maximum bounds
 a breakdown such as HeightTracking's commanded-height bands; at most 1 where every criterion is met); the best is the
-lowest. Prints a table; --out writes the rows as JSON.
+lowest. Fewer envs, shorter episodes or the CPU still rank them, but (as `eval_all`) do not judge whether one meets
+the criteria. Prints a table; --out writes the rows as JSON.
 """
 
 from __future__ import annotations
@@ -54,7 +55,8 @@ def table(rows: list[dict]) -> str:
         return "-" if value is None else f"{value:.4g}"
 
     lines = ["| iteration | score | met | " + " | ".join(keys) + " |", "|" + "---|" * (len(keys) + 3)]
-    lines += [f"| {r['iteration']} | {r['score']:.3f} | {'yes' if r['met'] else 'no'} | "
+    met = {True: "yes", False: "no", None: "not judged"}
+    lines += [f"| {r['iteration']} | {r['score']:.3f} | {met[r['met']]} | "
               + " | ".join(cell(r.get(k)) for k in keys) + " |" for r in rows]
     return "\n".join(lines)
 
@@ -98,21 +100,32 @@ def main(argv=None) -> None:
         evaluate = evaluator(args.task, args.overrides, device, args.num_envs, args.episode_length_s, seed=args.seed)
     except ConfigError as err:
         cli.fail(str(err))
+    setting = {"num_envs": args.num_envs or entry.eval_settings["num_envs"],
+               "episode_length_s": args.episode_length_s or entry.eval_settings["episode_length_s"]}
+    # as eval_all judges: fewer envs, shorter episodes or the CPU rank the checkpoints, but cannot say one passes
+    judged = device != "cpu" and all(setting[k] >= entry.eval_settings[k] for k in setting)
+    if not judged:
+        print(f"[agile] {setting['num_envs']} envs x {setting['episode_length_s']:g} s on {device}, not the task's "
+              f"evaluation setting ({entry.eval_settings['num_envs']} envs x {entry.eval_settings['episode_length_s']:g} "
+              f"s on a GPU): the checkpoints are ranked, whether one meets the criteria is not judged")
     rows = []
     for iteration, path in checkpoints:
         row = {"iteration": iteration, "checkpoint": str(path), **judge(evaluate(path), entry.criteria, entry.minima)}
+        if not judged:
+            row["met"] = None
         rows.append(row)
         print(f"[agile] iteration {iteration}: score {row['score']:.3f}" + (" (criteria met)" if row["met"] else ""),
               flush=True)
     best = min(rows, key=lambda r: r["score"])
     print(table(rows))
-    print(f"[agile] best: iteration {best['iteration']} ({best['checkpoint']}), score {best['score']:.3f}"
-          + (", every criterion met" if best["met"] else f"; misses {'; '.join(best['missed'])}"))
+    verdict = ("criteria not judged" if best["met"] is None else "every criterion met" if best["met"]
+               else f"misses {'; '.join(best['missed'])}")
+    print(f"[agile] best: iteration {best['iteration']} ({best['checkpoint']}), score {best['score']:.3f}; {verdict}")
     if args.out:
         with open(args.out, "w") as f:
             json.dump({"task": args.task, "run": str(run_dir), "every": args.every, "seed": args.seed,
-                       "criteria": entry.criteria, "minima": entry.minima, "best": best["iteration"], "rows": rows},
-                      f, indent=2)
+                       "device": device, **setting, "criteria_judged": judged, "criteria": entry.criteria,
+                       "minima": entry.minima, "best": best["iteration"], "rows": rows}, f, indent=2)
 
 
 if __name__ == "__main__":

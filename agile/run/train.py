@@ -362,6 +362,9 @@ def main(argv=None) -> None:
                                           args.init_action_std)
         restore_runner(runner, start, load_cfg={policy_obs_set(agent_cfg): True})
     iterations, warmup = agent_cfg.max_iterations, 0
+    if starts_normalizing(agent_cfg, resume_contents):
+        print("[agile] the checkpoint was trained without reward normalisation: its statistics start afresh, and the "
+              "critic learned returns of another scale (critic_warmup_iterations applies)")
     if args.init_policy or starts_normalizing(agent_cfg, resume_contents):
         warmup = min(getattr(agent_cfg, "critic_warmup_iterations", 0), iterations)
     if warmup > 0:

@@ -106,10 +106,8 @@ class RewardNormalization:
 
     def load(self, loaded_dict: dict, load_cfg: dict | None, strict: bool) -> bool:
         resumed = super().load(loaded_dict, load_cfg, strict)
-        if STATE_KEY in loaded_dict:
+        if STATE_KEY in loaded_dict:  # else (trained without) they start afresh: `starts_normalizing`
             self.reward_normalizer.load_state_dict(loaded_dict[STATE_KEY])
-        elif resumed:
-            print("[agile] the checkpoint holds no reward-normalisation statistics: they start afresh", flush=True)
         return resumed
 
 
