@@ -8,7 +8,8 @@ rollout as the mini-batch has samples, each at a random point s~ = s_t + u (s_t+
 
 (mean over the pairs and the entries; mu the action mean, V the value) to the PPO loss. Pairs across an episode's end (the step's
 `done`: the next observation is after a reset) count zero. Drawn on the device (no host synchronisation, and
-capturable: `CapturedPPO` replays it with new draws). Logged as `Loss/l2c2`.
+capturable: `CapturedPPO` replays it with new draws). Logged as `Loss/l2c2`. Under the bf16 autocast of
+`use_mixed_precision` the outputs, and so their small differences, carry bf16's rounding; AGILE trains in float32.
 
 It needs the update's mini-batch step to take an extra loss term (`SyncFreePPO.regularization_loss`), so the PPO
 class must be `SyncFreePPO` or `CapturedPPO` (rsl-rl's own PPO has no place for it); feed-forward models only.
