@@ -118,78 +118,78 @@ def flat_raw_physics(env_cfg, device: str, steps: int) -> float:
     return rate
 
 
-def time_training_phases(runner, env, iterations: int) -> dict:
-    """Seconds per PPO iteration in each phase of rsl-rl's loop (its rollout and update, without its NaN
-    checks and logging): env steps, policy inference with rollout storage, and the update. Each phase is
-    closed by a device synchronisation, so the sum is a little above a real iteration."""
+def training_loop(runner, env, iterations: int, phase) -> None:
+    """rsl-rl's rollout and update (without its NaN checks and logging), each call made through `phase(name, func,
+    *args)`, named "act", "env_step", "storage", "returns" or "update"."""
     import torch
 
-    alg, device = runner.alg, env.device
+    alg = runner.alg
     obs = env.get_observations()
+    for _ in range(iterations):
+        with torch.inference_mode():
+            for _ in range(runner.cfg["num_steps_per_env"]):
+                actions = phase("act", alg.act, obs)
+                obs, rewards, dones, extras = phase("env_step", env.step, actions)
+                phase("storage", alg.process_env_step, obs, rewards, dones, extras)
+            phase("returns", alg.compute_returns, obs)
+        phase("update", alg.update)
+
+
+PHASE_GROUPS = {"act": "policy_and_storage_s", "env_step": "env_steps_s", "storage": "policy_and_storage_s",
+                "returns": "policy_and_storage_s", "update": "update_s"}
+"""Where `time_training_phases` counts each call of `training_loop`."""
+
+
+def time_training_phases(runner, env, iterations: int) -> dict:
+    """Seconds per PPO iteration in each phase of rsl-rl's loop (`training_loop`): env steps, policy inference with
+    rollout storage, and the update. Each phase is closed by a device synchronisation, so the sum is a little above a
+    real iteration."""
+    device = env.device
     seconds = {"env_steps_s": 0.0, "policy_and_storage_s": 0.0, "update_s": 0.0}
 
-    def timed(phase: str, func, *args):
+    def timed(name: str, func, *args):
         synchronize(device)
         start = time.perf_counter()
         result = func(*args)
         synchronize(device)
-        seconds[phase] += time.perf_counter() - start
+        seconds[PHASE_GROUPS[name]] += time.perf_counter() - start
         return result
 
-    for _ in range(iterations):
-        with torch.inference_mode():
-            for _ in range(runner.cfg["num_steps_per_env"]):
-                actions = timed("policy_and_storage_s", alg.act, obs)
-                obs, rewards, dones, extras = timed("env_steps_s", env.step, actions)
-                timed("policy_and_storage_s", alg.process_env_step, obs, rewards, dones, extras)
-            timed("policy_and_storage_s", alg.compute_returns, obs)
-        timed("update_s", alg.update)
-    return {phase: value / iterations for phase, value in seconds.items()}
+    training_loop(runner, env, iterations, timed)
+    return {name: value / iterations for name, value in seconds.items()}
 
 
 def time_training_timeline(runner, env, iterations: int) -> dict | None:
-    """Seconds per PPO iteration of each phase on the GPU's own clock, nothing synchronised: CUDA events recorded
-    between the phases of rsl-rl's loop (act, env step, storage and the logger's step, returns, update) and read once
-    at the end. A phase's time runs from the end of the one before on the GPU, so it includes the GPU's waits for the
-    host to launch it: where `time_training_phases` (synchronised, host time) and this differ, the host was the
-    bottleneck, or hid behind the GPU. `loop_s`: the host's wall time of the loop; None off CUDA."""
+    """The loop's calls (`training_loop`: act, env step, storage, returns, update) on the GPU's own clock, nothing
+    synchronised: a CUDA event recorded after each call and read once at the end. A phase's time runs from the end of
+    the call before on the GPU, so it includes the GPU's waits for the host to launch it: where `time_training_phases`
+    (synchronised, host time) and this differ, the host was the bottleneck, or hid behind the GPU. `loop_s`: the
+    host's wall time of the loop; None off CUDA."""
     import torch
 
     if not str(env.device).startswith("cuda"):
         return None
-    alg, steps = runner.alg, runner.cfg["num_steps_per_env"]
-    phases = ("act_s", "env_step_s", "storage_s", "returns_s", "update_s")
+    seconds = {f"{name}_s": 0.0 for name in PHASE_GROUPS}
+    last = torch.cuda.Event(enable_timing=True)
     marks: list[tuple[str, torch.cuda.Event]] = []
 
-    def mark(phase: str) -> None:
+    def marked(name: str, func, *args):
+        result = func(*args)
         event = torch.cuda.Event(enable_timing=True)
         event.record()
-        marks.append((phase, event))
+        marks.append((name, event))
+        return result
 
-    obs = env.get_observations()
     synchronize(env.device)
     start = time.perf_counter()
-    mark("start")
-    for _ in range(iterations):
-        with torch.inference_mode():
-            for _ in range(steps):
-                actions = alg.act(obs)
-                mark("act_s")
-                obs, rewards, dones, extras = env.step(actions)
-                mark("env_step_s")
-                alg.process_env_step(obs, rewards, dones, extras)
-                runner.logger.process_env_step(rewards, dones, extras, None)
-                mark("storage_s")
-            alg.compute_returns(obs)
-            mark("returns_s")
-        alg.update()
-        mark("update_s")
+    last.record()
+    training_loop(runner, env, iterations, marked)
     synchronize(env.device)
     loop_s = time.perf_counter() - start
-    seconds = dict.fromkeys(phases, 0.0)
-    for (_, before), (phase, after) in zip(marks, marks[1:]):
-        seconds[phase] += before.elapsed_time(after) / 1e3
-    return {**{phase: value / iterations for phase, value in seconds.items()}, "loop_s": loop_s / iterations}
+    for name, event in marks:
+        seconds[f"{name}_s"] += last.elapsed_time(event) / 1e3
+        last = event
+    return {**{name: value / iterations for name, value in seconds.items()}, "loop_s": loop_s / iterations}
 
 
 def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterations: int) -> dict:

@@ -35,13 +35,13 @@ def run_checkpoints(run_dir: Path, every: int) -> list[tuple[int, Path]]:
 
 def judge(metrics: dict, criteria: dict, minima: dict) -> dict:
     """The row of one evaluation: the criteria it misses, its score, and the metrics the criteria name."""
-    from agile.tasks.catalogue import missed_criteria, worst_margin
+    from agile.tasks.catalogue import criterion_values, missed_criteria, worst_margin
 
-    episode_metrics = metrics.get("episode_metrics", {})
-    named = {name: metrics.get(name, episode_metrics.get(name)) for name in [*criteria, *minima]
-             if name not in metrics.get("error_by_command", {})}
-    bands = {name: [round(row["error"], 4) for row in rows if row["steps"] > 0]
-             for name, rows in metrics.get("error_by_command", {}).items() if name in criteria}
+    breakdowns = metrics.get("error_by_command", {})
+    named = {name: criterion_values(metrics, name, breakdown=False)[0][1] for name in [*criteria, *minima]
+             if name not in breakdowns}
+    bands = {name: [round(value, 4) for _, value in criterion_values(metrics, name)]
+             for name in breakdowns if name in criteria}
     missed = missed_criteria(metrics, criteria, minima)
     return {"met": not missed, "score": worst_margin(metrics, criteria, minima), "missed": missed, **named, **bands}
 

@@ -363,10 +363,11 @@ def main(argv=None) -> None:
                                           args.init_action_std)
         restore_runner(runner, start, load_cfg={policy_obs_set(agent_cfg): True})
     iterations, warmup = agent_cfg.max_iterations, 0
-    if starts_normalizing(agent_cfg, resume_contents):
+    rescaled = starts_normalizing(agent_cfg, resume_contents)
+    if rescaled:
         print("[agile] the checkpoint was trained without reward normalisation: its statistics start afresh, and the "
               "critic learned returns of another scale (critic_warmup_iterations applies)")
-    if args.init_policy or starts_normalizing(agent_cfg, resume_contents):
+    if args.init_policy or rescaled:
         warmup = min(getattr(agent_cfg, "critic_warmup_iterations", 0), iterations)
     if warmup > 0:
         warm_up_critic(runner, warmup, agent_cfg.critic_warmup_learning_rate)

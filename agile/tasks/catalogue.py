@@ -107,26 +107,31 @@ def evaluated_tasks() -> list[TaskEntry]:
             if e.kind in EVALUATED_KINDS and e.policy is not None and e.policy.stem.split(".")[0] == e.task]
 
 
-def missed_criteria(metrics: dict, criteria: dict, minima: dict | None = None) -> list[str]:
-    """'metric value > maximum' (or '< minimum') for each criterion the metrics miss, looked up among eval.py's
-    top-level metrics, then its `episode_metrics`, then its `error_by_command` breakdowns (a maximum there bounds every
-    bin that has steps, e.g. "height_error_m_by_height_m": each commanded-height band); a criterion whose metric is
-    absent is a miss too (an eval that did not measure it cannot pass it)."""
-    episode_metrics = metrics.get("episode_metrics", metrics.get(LEGACY_EPISODE_METRICS_KEY, {}))
+def criterion_values(metrics: dict, name: str, breakdown: bool = True) -> list[tuple[list | None, float | None]]:
+    """(bin, value) of what a criterion on `name` bounds in eval.py's metrics: with `breakdown` (a maximum) and `name`
+    one of its `error_by_command` breakdowns, every bin that has steps (e.g. "height_error_m_by_height_m": each
+    commanded-height band); else the one value, top-level then among `episode_metrics` (None: not measured), bin None."""
     breakdowns = metrics.get("error_by_command", {})
+    if breakdown and name in breakdowns:
+        return [(row["command"], row["error"]) for row in breakdowns[name] if row["steps"] > 0]
+    episode_metrics = metrics.get("episode_metrics", metrics.get(LEGACY_EPISODE_METRICS_KEY, {}))
+    return [(None, metrics.get(name, episode_metrics.get(name)))]
+
+
+def missed_criteria(metrics: dict, criteria: dict, minima: dict | None = None) -> list[str]:
+    """'metric value > maximum' (or '< minimum') for each criterion the metrics miss (`criterion_values`: a maximum on
+    a breakdown bounds each of its bins); a criterion whose metric is absent is a miss too (an eval that did not
+    measure it cannot pass it)."""
     missed = []
     for bounds, kind, within, sign in ((criteria, "maximum", lambda v, b: v <= b, ">"),
                                        (minima or {}, "minimum", lambda v, b: v >= b, "<")):
         for name, bound in bounds.items():
-            if kind == "maximum" and name in breakdowns:
-                missed += [f"{name} {_bin_label(row['command'])} {row['error']:.4g} > {bound:g}"
-                           for row in breakdowns[name] if row["steps"] > 0 and not row["error"] <= bound]
-                continue
-            value = metrics.get(name, episode_metrics.get(name))
-            if value is None:
-                missed.append(f"{name} not measured ({kind} {bound})")
-            elif not within(value, bound):  # NaN misses
-                missed.append(f"{name} {value:.4g} {sign} {bound:g}")
+            for command, value in criterion_values(metrics, name, breakdown=kind == "maximum"):
+                if value is None:
+                    missed.append(f"{name} not measured ({kind} {bound})")
+                elif not within(value, bound):  # NaN misses
+                    label = "" if command is None else f" {_bin_label(command)}"
+                    missed.append(f"{name}{label} {value:.4g} {sign} {bound:g}")
     return missed
 
 
@@ -135,9 +140,6 @@ def worst_margin(metrics: dict, criteria: dict, minima: dict | None = None) -> f
     (each breakdown bin with steps, where a maximum bounds a breakdown) and of minimum / value over the minima. At most
     1 where every criterion is met (as `missed_criteria` judges); inf for a metric not measured, NaN or past a zero
     bound."""
-    episode_metrics = metrics.get("episode_metrics", metrics.get(LEGACY_EPISODE_METRICS_KEY, {}))
-    breakdowns = metrics.get("error_by_command", {})
-
     def ratio(numerator, denominator) -> float:
         if numerator is None or denominator is None or not numerator == numerator or not denominator == denominator:
             return math.inf
@@ -145,14 +147,9 @@ def worst_margin(metrics: dict, criteria: dict, minima: dict | None = None) -> f
             return 0.0 if numerator == 0.0 else math.inf
         return numerator / denominator
 
-    ratios = []
-    for name, bound in criteria.items():
-        if name in breakdowns:
-            ratios += [ratio(row["error"], bound) for row in breakdowns[name] if row["steps"] > 0]
-        else:
-            ratios.append(ratio(metrics.get(name, episode_metrics.get(name)), bound))
-    for name, bound in (minima or {}).items():
-        ratios.append(ratio(bound, metrics.get(name, episode_metrics.get(name))))
+    ratios = [ratio(value, bound) for name, bound in criteria.items() for _, value in criterion_values(metrics, name)]
+    ratios += [ratio(bound, value) for name, bound in (minima or {}).items()
+               for _, value in criterion_values(metrics, name, breakdown=False)]
     return max(ratios, default=0.0)
 
 
