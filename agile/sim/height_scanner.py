@@ -9,38 +9,66 @@ Without a terrain the ground is the plane z=0.
 from __future__ import annotations
 
 import torch
+import warp as wp
 
-from agile.sim.entities.entity import Entity
+from agile.sim.entities.entity import Entity, yaw_of
 from agile.sim.scene_cfg import HeightScannerCfg
-from agile.utils.math import yaw_from_quat
 
 
 class TerrainHeights:
-    """Surface height z(x, y) of a height field, as torch math on the sim device.
+    """Surface height z(x, y) of a height field (`terrain_height` in a Warp kernel reads it).
 
     Each grid cell is split into two triangles along the diagonal from (i, j+1) to (i+1, j), as MuJoCo
     builds its height-field prisms, so that the scan agrees with the collision surface.
     """
 
     def __init__(self, heights_m: torch.Tensor, origin_xy_m: tuple[float, float], horizontal_scale_m: float):
-        self.heights_m = heights_m
+        self.heights_m = heights_m.contiguous()
+        self.heights_wp = wp.from_torch(self.heights_m)
         self.num_x, self.num_y = heights_m.shape
         self.origin_xy_m = origin_xy_m
         self.horizontal_scale_m = horizontal_scale_m
 
-    def __call__(self, x_m: torch.Tensor, y_m: torch.Tensor) -> torch.Tensor:
-        # outside the grid the border's edge height continues (the border is flat)
-        u = ((x_m - self.origin_xy_m[0]) / self.horizontal_scale_m).clamp(0.0, self.num_x - 1.0001)
-        v = ((y_m - self.origin_xy_m[1]) / self.horizontal_scale_m).clamp(0.0, self.num_y - 1.0001)
-        i, j = u.floor(), v.floor()
-        fu, fv = u - i, v - j
-        flat = self.heights_m.view(-1)
-        base = i.long() * self.num_y + j.long()
-        z00, z10 = flat[base], flat[base + self.num_y]
-        z01, z11 = flat[base + 1], flat[base + self.num_y + 1]
-        lower = z00 + fu * (z10 - z00) + fv * (z01 - z00)
-        upper = z11 + (1.0 - fu) * (z01 - z11) + (1.0 - fv) * (z10 - z11)
-        return torch.where(fu + fv <= 1.0, lower, upper)
+
+@wp.func
+def terrain_height(heights_m: wp.array2d(dtype=float), origin_x_m: float, origin_y_m: float, scale_m: float,
+                   x_m: float, y_m: float) -> float:
+    """The height field's surface height at (x, y) [m]; outside the grid the border's edge height continues (the
+    border is flat)."""
+    num_x, num_y = heights_m.shape[0], heights_m.shape[1]
+    u = wp.clamp((x_m - origin_x_m) / scale_m, 0.0, float(num_x) - 1.0001)
+    v = wp.clamp((y_m - origin_y_m) / scale_m, 0.0, float(num_y) - 1.0001)
+    i, j = wp.floor(u), wp.floor(v)
+    fu, fv = u - i, v - j
+    row, col = int(i), int(j)
+    z00, z10 = heights_m[row, col], heights_m[row + 1, col]
+    z01, z11 = heights_m[row, col + 1], heights_m[row + 1, col + 1]
+    if fu + fv <= 1.0:
+        return z00 + fu * (z10 - z00) + fv * (z01 - z00)
+    return z11 + (1.0 - fu) * (z01 - z11) + (1.0 - fv) * (z10 - z11)
+
+
+@wp.kernel(enable_backward=False)
+def _scan(body_pose_w: wp.array2d(dtype=float), ray_offsets_b: wp.array2d(dtype=float),
+          heights_m: wp.array2d(dtype=float), has_terrain: int, origin_x_m: float, origin_y_m: float,
+          scale_m: float, pos_w: wp.array2d(dtype=float), ray_xy_w: wp.array3d(dtype=float),
+          hit_z_m: wp.array2d(dtype=float)):
+    env, ray = wp.tid()
+    px, py = body_pose_w[env, 0], body_pose_w[env, 1]
+    yaw = yaw_of(body_pose_w[env, 3], body_pose_w[env, 4], body_pose_w[env, 5], body_pose_w[env, 6])
+    cos_yaw, sin_yaw = wp.cos(yaw), wp.sin(yaw)
+    dx, dy = ray_offsets_b[ray, 0], ray_offsets_b[ray, 1]
+    x = px + cos_yaw * dx - sin_yaw * dy
+    y = py + sin_yaw * dx + cos_yaw * dy
+    ray_xy_w[env, ray, 0] = x
+    ray_xy_w[env, ray, 1] = y
+    z = 0.0
+    if has_terrain:
+        z = terrain_height(heights_m, origin_x_m, origin_y_m, scale_m, x, y)
+    hit_z_m[env, ray] = z
+    if ray == 0:
+        for k in range(3):
+            pos_w[env, k] = body_pose_w[env, k]
 
 
 def grid_pattern(size_m: tuple[float, float], resolution_m: float, device) -> torch.Tensor:
@@ -82,17 +110,15 @@ class HeightScanner:
         self.ray_xy_w = torch.zeros(n, self.num_rays, 2, device=device)
         self.hit_z_m = torch.zeros(n, self.num_rays, device=device)
         self.base_height_m = torch.zeros(n, device=device)
+        # Warp views made once (the body's pose is a view of the simulation state)
+        heights = terrain.heights_wp if terrain is not None else wp.zeros((1, 1), dtype=float, device=entity.wp_device)
+        origin, scale = (terrain.origin_xy_m, terrain.horizontal_scale_m) if terrain is not None else ((0.0, 0.0), 1.0)
+        self._scan_args = [wp.from_torch(entity.body_pose_w[:, self.body_id]), wp.from_torch(self.ray_offsets_b),
+                           heights, int(terrain is not None), float(origin[0]), float(origin[1]), float(scale),
+                           wp.from_torch(self.pos_w), wp.from_torch(self.ray_xy_w), wp.from_torch(self.hit_z_m)]
+        self._wp_device = entity.wp_device
 
     def update(self) -> None:
-        pose = self.entity.body_pose_w[:, self.body_id]
-        yaw = yaw_from_quat(pose[:, 3:7]).unsqueeze(1)
-        cos, sin = torch.cos(yaw), torch.sin(yaw)
-        dx, dy = self.ray_offsets_b[:, 0], self.ray_offsets_b[:, 1]
-        self.pos_w.copy_(pose[:, :3])
-        self.ray_xy_w[..., 0] = pose[:, 0:1] + cos * dx - sin * dy
-        self.ray_xy_w[..., 1] = pose[:, 1:2] + sin * dx + cos * dy
-        if self.terrain is None:
-            self.hit_z_m.zero_()
-        else:
-            self.hit_z_m.copy_(self.terrain(self.ray_xy_w[..., 0], self.ray_xy_w[..., 1]))
+        """Ray positions and hit heights in one kernel, then the base height (their mean under the body)."""
+        wp.launch(_scan, dim=(self.entity.num_envs, self.num_rays), inputs=self._scan_args, device=self._wp_device)
         torch.sub(self.pos_w[:, 2], self.hit_z_m.mean(dim=1), out=self.base_height_m)
