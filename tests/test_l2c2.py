@@ -105,13 +105,16 @@ def test_the_captured_update_replays_the_term_with_new_draws():
                               device="cuda:0", l2c2={})
     terms = []
     for _ in range(4):  # the first update is eager, the second captures, the rest replay
-        for t in range(NUM_STEPS):
-            obs = TensorDict({"policy": torch.randn(NUM_ENVS, OBS_DIM, device="cuda:0") * (t + 1)},
-                             batch_size=[NUM_ENVS], device="cuda:0")
-            algorithm.act(obs)
-            algorithm.process_env_step(obs, torch.randn(NUM_ENVS, device="cuda:0"),
-                                       torch.zeros(NUM_ENVS, dtype=torch.long, device="cuda:0"), {})
-        algorithm.compute_returns(obs)
+        # the rollout as rsl-rl's runner collects it, under inference mode: an actor forward with autograd on the
+        # default stream would tie the parameters' gradient accumulation to that stream, which capture refuses
+        with torch.inference_mode():
+            for t in range(NUM_STEPS):
+                obs = TensorDict({"policy": torch.randn(NUM_ENVS, OBS_DIM, device="cuda:0") * (t + 1)},
+                                 batch_size=[NUM_ENVS], device="cuda:0")
+                algorithm.act(obs)
+                algorithm.process_env_step(obs, torch.randn(NUM_ENVS, device="cuda:0"),
+                                           torch.zeros(NUM_ENVS, dtype=torch.long, device="cuda:0"), {})
+            algorithm.compute_returns(obs)
         terms.append(algorithm.update()["l2c2"])
     assert algorithm.graph is not None and all(term > 0.0 for term in terms)
     assert len(set(terms[2:])) == 2  # replays draw anew

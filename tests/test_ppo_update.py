@@ -94,6 +94,24 @@ def test_the_sync_free_update_matches_rsl_rls_update(desired_kl, cls):
         assert torch.allclose(actor[name], value, rtol=1e-4, atol=1e-6), name
 
 
+@pytest.mark.parametrize("per_mini_batch", [False, True])
+def test_the_returns_and_advantages_are_rsl_rls_to_the_bit(per_mini_batch):
+    """SyncFreePPO's GAE (all TD errors at once, two kernels a step) computes rsl-rl's numbers exactly: the same
+    operations in the same order on every element, over episodes that end mid-rollout."""
+    plain, sync_free = make_algorithm("PPO", 0.01), make_algorithm(SyncFreePPO, 0.01)
+    sync_free.critic.load_state_dict(plain.critic.state_dict())
+    for algorithm in (plain, sync_free):
+        algorithm.normalize_advantage_per_mini_batch = per_mini_batch
+        fill_rollout(algorithm, seed=5)
+    assert plain.storage.dones.any() and not plain.storage.dones.all()
+    for name in ("values", "rewards", "returns", "advantages"):
+        assert torch.equal(getattr(sync_free.storage, name), getattr(plain.storage, name)), name
+    for algorithm in (plain, sync_free):  # a second rollout: the recursion starts afresh
+        algorithm.storage.clear()
+        fill_rollout(algorithm, seed=6)
+    assert torch.equal(sync_free.storage.advantages, plain.storage.advantages)
+
+
 @pytest.mark.parametrize("mirror_loss", [False, True])
 def test_the_sync_free_update_matches_rsl_rls_update_with_symmetry(mirror_loss):
     """Mirrored samples in every mini-batch, and the mirror loss either trained on or only logged (then computed

@@ -52,6 +52,27 @@ class SyncFreePPO(PPO):
         None: none."""
         return None
 
+    def compute_returns(self, obs) -> None:
+        """rsl-rl's returns and advantages (GAE), the same operations in the same order on every element, so the
+        same numbers: the TD errors of all steps at once, then the backward recursion at two kernels a step, where
+        rsl-rl's loop launches about eleven (on a GPU, launched one by one, ~4 ms of a G1 iteration)."""
+        st = self.storage
+        last_values = self.critic(obs).detach()  # feed-forward (the class refuses recurrent models): no state
+        not_terminal = 1.0 - st.dones.float()
+        next_values = torch.cat((st.values[1:], last_values.unsqueeze(0)))
+        delta = st.rewards + not_terminal * self.gamma * next_values - st.values
+        decay = not_terminal * self.gamma * self.lam
+        advantage = st.advantages  # every step is written below, the last first
+        advantage[-1] = delta[-1]  # rsl-rl: delta + decay x 0
+        carried = torch.empty_like(advantage[0])
+        for step in reversed(range(st.num_transitions_per_env - 1)):
+            torch.mul(decay[step], advantage[step + 1], out=carried)
+            torch.add(delta[step], carried, out=advantage[step])
+        torch.add(advantage, st.values, out=st.returns)
+        st.advantages = st.returns - st.values  # rsl-rl derives them back from the returns
+        if not self.normalize_advantage_per_mini_batch:
+            st.advantages = (st.advantages - st.advantages.mean()) / (st.advantages.std() + 1e-8)
+
     def update(self) -> dict[str, float]:
         sums = torch.zeros(LOSS_SUMS, device=self.device)
         for batch in self.storage.mini_batch_generator(self.num_mini_batches, self.num_learning_epochs):
