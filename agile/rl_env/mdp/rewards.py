@@ -166,22 +166,21 @@ def action_rate_rate_l2(env) -> torch.Tensor:
 
 # -- feet (poses only; contact-based foot terms need the contact sensor) ----------------------------
 
-def _feet_rpy(env, asset_cfg: SceneEntityCfg) -> tuple[torch.Tensor, torch.Tensor]:
-    """(roll, yaw) of the selected bodies, (N, 2) each; roll about the foot's own x axis."""
-    quat = env.scene[asset_cfg.name].body_pose_w[:, asset_cfg.body_ids, 3:7]
-    x, y, z, w = quat.unbind(-1)
-    roll = torch.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-    return roll, yaw_from_quat(quat)
+def _feet_quat(env, asset_cfg: SceneEntityCfg) -> torch.Tensor:
+    """(N, B, 4) orientations (x, y, z, w) of the selected bodies."""
+    return env.scene[asset_cfg.name].body_pose_w[:, asset_cfg.body_ids, 3:7]
 
 
 def feet_roll_l2(env, asset_cfg: SceneEntityCfg) -> torch.Tensor:
-    roll, _ = _feet_rpy(env, asset_cfg)
+    """Sum of the feet's squared roll, each about the foot's own x axis [rad²]."""
+    x, y, z, w = _feet_quat(env, asset_cfg).unbind(-1)
+    roll = torch.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
     return torch.sum(torch.square(roll), dim=1)
 
 
 def feet_yaw_diff_l2(env, asset_cfg: SceneEntityCfg) -> torch.Tensor:
     """Squared yaw difference between the two feet."""
-    _, yaw = _feet_rpy(env, asset_cfg)
+    yaw = yaw_from_quat(_feet_quat(env, asset_cfg))
     return torch.square(wrap_to_pi(yaw[:, 1] - yaw[:, 0]))
 
 
