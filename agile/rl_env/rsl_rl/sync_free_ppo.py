@@ -62,13 +62,13 @@ class SyncFreePPO(PPO):
         next_values = torch.cat((st.values[1:], last_values.unsqueeze(0)))
         delta = st.rewards + not_terminal * self.gamma * next_values - st.values
         decay = not_terminal * self.gamma * self.lam
-        advantage = st.advantages  # every step is written below, the last first
+        advantage = st.returns  # the advantages first, then the values added: the returns
         advantage[-1] = delta[-1]  # rsl-rl: delta + decay x 0
         carried = torch.empty_like(advantage[0])
         for step in reversed(range(st.num_transitions_per_env - 1)):
             torch.mul(decay[step], advantage[step + 1], out=carried)
             torch.add(delta[step], carried, out=advantage[step])
-        torch.add(advantage, st.values, out=st.returns)
+        st.returns.add_(st.values)
         st.advantages = st.returns - st.values  # rsl-rl derives them back from the returns
         if not self.normalize_advantage_per_mini_batch:
             st.advantages = (st.advantages - st.advantages.mean()) / (st.advantages.std() + 1e-8)
