@@ -252,24 +252,26 @@ def test_trapezoidal_profile_reaches_targets_within_velocity_and_acceleration_bo
     n, j = 64, 5
     cfg = mdp.TrapezoidalVelocityProfileCfg(acceleration_range=(1.0, 20.0), max_velocity_range=(10.0, 20.0),
                                             min_cruise_ratio=0.1, synchronize_joints=synchronize)
-    # float64, so that second differences over 1 ms measure the profile rather than rounding
-    velocity_limit = torch.full((n, j), 12.0, dtype=torch.float64)
+    velocity_limit = torch.full((n, j), 12.0)
     profile = mdp.TrapezoidalProfile(cfg, velocity_limit)
-    start = torch.rand(n, j, dtype=torch.float64) * 4.0 - 2.0
-    target = torch.rand(n, j, dtype=torch.float64) * 4.0 - 2.0
+    start = torch.rand(n, j) * 4.0 - 2.0
+    target = torch.rand(n, j) * 4.0 - 2.0
     target[0, 0] = start[0, 0]  # a joint that stays put
     profile.plan(start, target, torch.ones(n, dtype=torch.bool))
-    dt_s = 1e-3
+    # the profile's float32 positions: differences over 10 ms (the finest a 50 Hz step needs) measure the profile,
+    # not rounding, to about 1e-3 in velocity and 0.3 rad/s² in acceleration
+    dt_s = 1e-2
     steps = int(profile.duration_s.max() / dt_s) + 2
-    path = run_profile(profile, dt_s, steps)
+    path = run_profile(profile, dt_s, steps).double()
 
     assert profile.done.all()
-    torch.testing.assert_close(path[-1], target)
-    torch.testing.assert_close(path[0], start)
+    torch.testing.assert_close(path[-1].float(), target)
+    torch.testing.assert_close(path[0].float(), start)
     velocity = path.diff(dim=0) / dt_s
     acceleration = velocity.diff(dim=0) / dt_s
-    assert (velocity.abs() <= velocity_limit * (1 + 1e-6)).all()
-    assert (acceleration.abs() <= profile.acceleration * (1 + 1e-6) + 1e-6).all()
+    assert (velocity.abs() <= velocity_limit * (1 + 1e-6) + 1e-3).all()
+    # a second difference straddling a phase change averages the two phases: within the bound as well
+    assert (acceleration.abs() <= profile.acceleration * (1 + 1e-6) + 0.3).all()
     # the motion is monotonic (no overshoot) and each joint arrives by its duration
     direction = torch.sign(target - start)
     assert ((velocity * direction) >= -1e-3).all()

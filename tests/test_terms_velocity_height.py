@@ -367,12 +367,16 @@ def test_teacher_steps_held_up_by_the_harness(teacher_env):
     assert sum(dims["policy"].values()) == 4 + 3 + 3 + 3 + 29 + 29 + 12
     assert dims["critic"]["height_scan_feet"] == 70 and dims["critic"]["base_height"] == 1
     assert env.action_manager.total_action_dim == 12
-    _step_finite(env, 25)
     robot = env.scene["robot"]
     pelvis = robot.find_bodies("pelvis")[0][0]
-    assert (robot.body_wrench_w[:, pelvis, 2] != 0.0).all()  # the harness pushes
-    assert (env.episode_length_buf == 25).all()  # standing in its default pose, nobody fell
-    assert (robot.root_pos_w[:, 2] - env.scene["height_measurement_sensor"].hit_z_m.mean(dim=1) > 0.45).all()
+    torch.manual_seed(0)
+    for _ in range(25):  # zero actions: the default pose, held up at the pelvis
+        _step_finite(env, 1)
+        going_on = env.episode_length_buf > 0  # (an env reset in this step starts unheld)
+        assert (robot.body_wrench_w[going_on, pelvis, 2] != 0.0).all()  # the harness pushes
+        # (an env may still tip over: its joints reset at up to twice their defaults, and pushes come; the
+        # harness holds the height, so no pelvis sinks towards the ground)
+        assert (robot.root_pos_w[:, 2] - env.scene["height_measurement_sensor"].hit_z_m.mean(dim=1) > 0.6).all()
 
 
 @pytest.mark.parametrize("student", ["recurrent_student_env_cfg", "history_student_env_cfg"])

@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import field
 
 import torch
+import warp as wp
 
 from agile.rl_env.managers import ActionTerm, ActionTermCfg
 from agile.sim.names import resolve_names
@@ -36,8 +37,130 @@ class TrapezoidalVelocityProfileCfg:
     """How synchronized joints share a duration: 'max_time' (the slowest joint's minimum time)."""
 
 
+@wp.func
+def _plan_env(env: int, plan_from: wp.array2d(dtype=float), target: wp.array2d(dtype=float),
+              acceleration_draw: wp.array2d(dtype=float), velocity_draw: wp.array2d(dtype=float),
+              velocity_limit: wp.array2d(dtype=float), acceleration_low: float, acceleration_span: float,
+              velocity_low: float, velocity_span: float, one_minus_ratio: float, one_plus_ratio: float,
+              synchronize: int, start: wp.array2d(dtype=float), distance: wp.array2d(dtype=float),
+              acceleration: wp.array2d(dtype=float), cruise_velocity: wp.array2d(dtype=float),
+              duration_s: wp.array2d(dtype=float), elapsed_s: wp.array(dtype=float)):
+    """A rest-to-rest motion of every joint of `env` from `plan_from` to `target` (see TrapezoidalProfile); each
+    joint's acceleration and velocity bound from its uniform [0, 1) draws. Written operation for operation as the
+    same expressions in torch would evaluate them (spans and ratio factors computed in double, as Python scalars
+    are), so that the CPU rollouts recorded before the kernel existed still match to the bit."""
+    num_joints = start.shape[1]
+    longest_s = float(0.0)
+    for j in range(num_joints):  # each joint's minimum time, kept in duration_s until the shared one is known
+        d = wp.abs(target[env, j] - plan_from[env, j])
+        a = acceleration_draw[env, j] * acceleration_span + acceleration_low
+        v_bound = wp.min(velocity_draw[env, j] * velocity_span + velocity_low, velocity_limit[env, j])
+        v_best = wp.min(v_bound, wp.sqrt(a * d * one_minus_ratio / one_plus_ratio))
+        min_time_s = float(0.0)
+        if v_best > 0.0:
+            min_time_s = d / v_best + v_best / a
+        duration_s[env, j] = min_time_s
+        acceleration[env, j] = a
+        longest_s = wp.max(longest_s, min_time_s)
+    for j in range(num_joints):
+        T = duration_s[env, j]
+        if synchronize != 0:
+            T = longest_s
+        a = acceleration[env, j]
+        d = wp.abs(target[env, j] - plan_from[env, j])
+        cruise_velocity[env, j] = 0.5 * (a * T - wp.sqrt(wp.max(a * a * T * T - 4.0 * a * d, 0.0)))
+        distance[env, j] = target[env, j] - plan_from[env, j]
+        start[env, j] = plan_from[env, j]
+        duration_s[env, j] = T
+    elapsed_s[env] = 0.0
+
+
+@wp.func
+def _position(env: int, j: int, start: wp.array2d(dtype=float), distance: wp.array2d(dtype=float),
+              acceleration: wp.array2d(dtype=float), cruise_velocity: wp.array2d(dtype=float),
+              duration_s: wp.array2d(dtype=float), elapsed_s: wp.array(dtype=float)) -> float:
+    a, v, T = acceleration[env, j], cruise_velocity[env, j], duration_s[env, j]
+    signed = distance[env, j]
+    d = wp.abs(signed)
+    t = wp.min(elapsed_s[env], T)
+    t_acc = v / a
+    travelled = d - 0.5 * a * ((T - t) * (T - t))  # decelerating
+    if t < t_acc:
+        travelled = 0.5 * a * t * t  # accelerating
+    elif t <= T - t_acc:
+        travelled = v * t - 0.5 * v * v / a  # cruising
+    direction = float(0.0)
+    if signed > 0.0:
+        direction = 1.0
+    elif signed < 0.0:
+        direction = -1.0
+    return start[env, j] + direction * travelled
+
+
+@wp.kernel(enable_backward=False)
+def _plan(plan_from: wp.array2d(dtype=float), target: wp.array2d(dtype=float), mask: wp.array(dtype=wp.bool),
+          acceleration_draw: wp.array2d(dtype=float), velocity_draw: wp.array2d(dtype=float),
+          velocity_limit: wp.array2d(dtype=float), acceleration_low: float, acceleration_span: float,
+          velocity_low: float, velocity_span: float, one_minus_ratio: float, one_plus_ratio: float,
+          synchronize: int, start: wp.array2d(dtype=float), distance: wp.array2d(dtype=float),
+          acceleration: wp.array2d(dtype=float), cruise_velocity: wp.array2d(dtype=float),
+          duration_s: wp.array2d(dtype=float), elapsed_s: wp.array(dtype=float)):
+    env = wp.tid()
+    if mask[env]:
+        _plan_env(env, plan_from, target, acceleration_draw, velocity_draw, velocity_limit, acceleration_low,
+                  acceleration_span, velocity_low, velocity_span, one_minus_ratio, one_plus_ratio, synchronize, start,
+                  distance, acceleration, cruise_velocity, duration_s, elapsed_s)
+
+
+@wp.kernel(enable_backward=False)
+def _positions(start: wp.array2d(dtype=float), distance: wp.array2d(dtype=float),
+               acceleration: wp.array2d(dtype=float), cruise_velocity: wp.array2d(dtype=float),
+               duration_s: wp.array2d(dtype=float), elapsed_s: wp.array(dtype=float),
+               positions: wp.array2d(dtype=float)):
+    env, j = wp.tid()
+    positions[env, j] = _position(env, j, start, distance, acceleration, cruise_velocity, duration_s, elapsed_s)
+
+
+@wp.kernel(enable_backward=False)
+def _random_motion_step(target_draw: wp.array2d(dtype=float), interval_draw: wp.array(dtype=float),
+                        walking: wp.array(dtype=wp.bool), offset: wp.array2d(dtype=float),
+                        position_low: wp.array2d(dtype=float), position_high: wp.array2d(dtype=float),
+                        interval_low_s: float, interval_span_s: float, step_dt_s: float,
+                        acceleration_draw: wp.array2d(dtype=float), velocity_draw: wp.array2d(dtype=float),
+                        velocity_limit: wp.array2d(dtype=float), acceleration_low: float, acceleration_span: float,
+                        velocity_low: float, velocity_span: float, one_minus_ratio: float, one_plus_ratio: float,
+                        synchronize: int, time_left_s: wp.array(dtype=float),
+                        target: wp.array2d(dtype=float), positions: wp.array2d(dtype=float),
+                        start: wp.array2d(dtype=float), distance: wp.array2d(dtype=float),
+                        acceleration: wp.array2d(dtype=float), cruise_velocity: wp.array2d(dtype=float),
+                        duration_s: wp.array2d(dtype=float), elapsed_s: wp.array(dtype=float)):
+    """One env step of RandomPositionAction for one env: a new motion from where the joints are once the interval
+    is over and the running motion done, then the profile advanced and evaluated into `positions`."""
+    env = wp.tid()
+    num_joints = start.shape[1]
+    time_left = time_left_s[env] - step_dt_s
+    done = bool(True)
+    for j in range(num_joints):
+        if elapsed_s[env] < duration_s[env, j]:
+            done = False
+    if time_left <= 0.0 and done:
+        for j in range(num_joints):
+            target[env, j] = target_draw[env, j] * (position_high[env, j] - position_low[env, j]) + position_low[env, j]
+            if walking[env]:
+                target[env, j] = offset[env, j]
+        _plan_env(env, positions, target, acceleration_draw, velocity_draw, velocity_limit, acceleration_low,
+                  acceleration_span, velocity_low, velocity_span, one_minus_ratio, one_plus_ratio, synchronize, start,
+                  distance, acceleration, cruise_velocity, duration_s, elapsed_s)
+        time_left = interval_draw[env] * interval_span_s + interval_low_s
+    time_left_s[env] = time_left
+    elapsed_s[env] = elapsed_s[env] + step_dt_s
+    for j in range(num_joints):
+        positions[env, j] = _position(env, j, start, distance, acceleration, cruise_velocity, duration_s, elapsed_s)
+
+
 class TrapezoidalProfile:
-    """Rest-to-rest point-to-point motions of (num_envs, num_joints) joints, planned and evaluated in closed form.
+    """Rest-to-rest point-to-point motions of (num_envs, num_joints) joints, planned and evaluated in closed form
+    (float32 Warp kernels: one launch plans every masked env, one evaluates every joint).
 
     For a distance d, acceleration a and cruise velocity v, a motion of duration T satisfies d = v·T − v²/a
     and spends t_a = v/a accelerating and decelerating. A joint's minimum time uses the largest v allowed by
@@ -54,18 +177,27 @@ class TrapezoidalProfile:
         if not 0.0 <= cfg.min_cruise_ratio < 1.0:
             raise ValueError(f"min_cruise_ratio must be in [0, 1), got {cfg.min_cruise_ratio}")
         self.cfg = cfg
-        self.velocity_limit_rad_s = velocity_limit_rad_s
-        zeros = torch.zeros_like(velocity_limit_rad_s)
+        self.velocity_limit_rad_s = velocity_limit_rad_s.float().contiguous()
+        zeros = torch.zeros_like(self.velocity_limit_rad_s)
+        num_envs, num_joints = zeros.shape
         self.start = zeros.clone()
         self.distance = zeros.clone()  # signed [rad]
         self.acceleration = torch.ones_like(zeros)
         self.cruise_velocity = zeros.clone()  # unsigned [rad/s]
         self.duration_s = zeros.clone()
         self.elapsed_s = zeros[:, 0].clone()
-
-    def _uniform(self, low_high: tuple[float, float]) -> torch.Tensor:
-        low, high = low_high
-        return torch.rand_like(self.start) * (high - low) + low
+        self.acceleration_draw = zeros.clone()
+        self.velocity_draw = zeros.clone()
+        """Uniform [0, 1) draws of a plan, per joint, by torch's generator (seeds and CUDA graphs as elsewhere)."""
+        self.wp_device = wp.get_device(str(zeros.device))  # (initialises Warp if nothing has yet)
+        (a_low, a_high), (v_low, v_high), r = cfg.acceleration_range, cfg.max_velocity_range, cfg.min_cruise_ratio
+        # Warp views of the same memory, made once (a kernel's arguments in order): what a plan reads, the state
+        self.plan_inputs_wp = [wp.from_torch(self.acceleration_draw), wp.from_torch(self.velocity_draw),
+                               wp.from_torch(self.velocity_limit_rad_s), float(a_low), float(a_high - a_low),
+                               float(v_low), float(v_high - v_low), float(1.0 - r), float(1.0 + r),
+                               int(cfg.synchronize_joints)]
+        self.state_wp = [wp.from_torch(t) for t in (self.start, self.distance, self.acceleration, self.cruise_velocity,
+                                                    self.duration_s, self.elapsed_s)]
 
     @property
     def done(self) -> torch.Tensor:
@@ -74,37 +206,25 @@ class TrapezoidalProfile:
 
     def plan(self, start: torch.Tensor, target: torch.Tensor, mask: torch.Tensor) -> None:
         """Start new motions from rest at `start` to `target` (num_envs, num_joints) where mask (num_envs,) is True."""
-        r = self.cfg.min_cruise_ratio
-        d = (target - start).abs()
-        a = self._uniform(self.cfg.acceleration_range)
-        v_bound = torch.minimum(self._uniform(self.cfg.max_velocity_range), self.velocity_limit_rad_s)
-        v_best = torch.minimum(v_bound, torch.sqrt(a * d * (1.0 - r) / (1.0 + r)))
-        moving = v_best > 0.0
-        min_time_s = torch.where(moving, d / torch.where(moving, v_best, 1.0) + v_best / a, 0.0)
-        if self.cfg.synchronize_joints:
-            duration_s = min_time_s.amax(dim=-1, keepdim=True).expand_as(min_time_s)
-        else:
-            duration_s = min_time_s
-        v = 0.5 * (a * duration_s - torch.sqrt((a * a * duration_s * duration_s - 4.0 * a * d).clamp(min=0.0)))
-        m = mask.unsqueeze(-1)
-        self.start.copy_(torch.where(m, start, self.start))
-        self.distance.copy_(torch.where(m, target - start, self.distance))
-        self.acceleration.copy_(torch.where(m, a, self.acceleration))
-        self.cruise_velocity.copy_(torch.where(m, v, self.cruise_velocity))
-        self.duration_s.copy_(torch.where(m, duration_s, self.duration_s))
-        self.elapsed_s.masked_fill_(mask, 0.0)
+        self.draw()
+        wp.launch(_plan, dim=self.elapsed_s.shape[0], device=self.wp_device,
+                  inputs=[wp.from_torch(start.float().contiguous()), wp.from_torch(target.float().contiguous()),
+                          wp.from_torch(mask.contiguous(), dtype=wp.bool), *self.plan_inputs_wp, *self.state_wp])
+
+    def draw(self) -> None:
+        """New draws for the next plan: every joint's acceleration, then its velocity bound."""
+        self.acceleration_draw.uniform_()
+        self.velocity_draw.uniform_()
 
     def advance(self, dt_s: float) -> None:
         self.elapsed_s += dt_s
 
     def position(self) -> torch.Tensor:
         """(num_envs, num_joints) positions at the elapsed time."""
-        a, v, d, T = self.acceleration, self.cruise_velocity, self.distance.abs(), self.duration_s
-        t = torch.minimum(self.elapsed_s.unsqueeze(-1), T)
-        t_acc = v / a
-        travelled = torch.where(t < t_acc, 0.5 * a * t * t,
-                                torch.where(t <= T - t_acc, v * t - 0.5 * v * v / a, d - 0.5 * a * (T - t) ** 2))
-        return self.start + torch.sign(self.distance) * travelled
+        positions = torch.empty_like(self.start)
+        wp.launch(_positions, dim=tuple(self.start.shape), inputs=self.state_wp, outputs=[wp.from_torch(positions)],
+                  device=self.wp_device)
+        return positions
 
 
 class RandomPositionAction(ActionTerm):
@@ -134,38 +254,51 @@ class RandomPositionAction(ActionTerm):
         self.profile = TrapezoidalProfile(cfg.velocity_profile_cfg, robot.joint_vel_limit[:, self.joint_ids].clone())
         self.processed_actions = self.offset.clone()
         """Commanded position targets [rad] of the term's joints."""
-        self.time_left_s = self._sample_interval()
+        self.time_left_s = torch.zeros(env.num_envs, device=env.device)
+        self.walking = torch.zeros(env.num_envs, dtype=torch.bool, device=env.device)
+        """Where the velocity command is not zero (`no_random_when_walking`): targets are the defaults."""
+        self.target_draw = torch.zeros_like(self.offset)
+        self.interval_draw = torch.zeros_like(self.time_left_s)
+        """Uniform [0, 1) draws of a step: a target per joint, an interval per env."""
+        low, high = self.pos_limits[..., 0].contiguous(), self.pos_limits[..., 1].contiguous()
+        interval_low_s, interval_high_s = cfg.sample_range_s
+        self._target = torch.zeros_like(self.offset)
+        profile = self.profile
+        self._step_args = [wp.from_torch(self.target_draw), wp.from_torch(self.interval_draw),
+                           wp.from_torch(self.walking, dtype=wp.bool), wp.from_torch(self.offset), wp.from_torch(low),
+                           wp.from_torch(high), float(interval_low_s), float(interval_high_s - interval_low_s),
+                           float(env.step_dt), *profile.plan_inputs_wp, wp.from_torch(self.time_left_s),
+                           wp.from_torch(self._target), wp.from_torch(self.processed_actions), *profile.state_wp]
+        self.time_left_s.copy_(self._sample_interval())
         self.profile.plan(self.offset, self.offset, torch.ones(env.num_envs, dtype=torch.bool, device=env.device))
 
     def _sample_interval(self) -> torch.Tensor:
         low, high = self.cfg.sample_range_s
-        return torch.rand(self.env.num_envs, device=self.env.device) * (high - low) + low
+        return self.interval_draw.uniform_() * (high - low) + low
 
     @property
     def action_dim(self) -> int:
         return 0
 
     def process_actions(self, actions: torch.Tensor) -> None:
-        step_dt_s = self.env.step_dt
-        self.time_left_s -= step_dt_s
-        resample = (self.time_left_s <= 0.0) & self.profile.done
-        low, high = self.pos_limits[..., 0], self.pos_limits[..., 1]
-        target = torch.rand_like(low) * (high - low) + low
+        """One Warp kernel after the draws: the interval counted down; where it is over and the running motion done,
+        a new target (uniform within the limits, or the defaults while walking) and its motion from where the joints
+        are; the profile advanced one env step and evaluated."""
         if self.cfg.no_random_when_walking:
             # AGILE: an env told to walk moves these joints back to their defaults (after the running motion)
-            walking = (self.env.command_manager.get_command(self.cfg.command_name)[:, :3] != 0.0).any(dim=1)
-            target = torch.where(walking.unsqueeze(-1), self.offset, target)
-        self.profile.plan(self.processed_actions, target, resample)
-        self.time_left_s.copy_(torch.where(resample, self._sample_interval(), self.time_left_s))
-        self.profile.advance(step_dt_s)
-        self.processed_actions.copy_(self.profile.position())
+            command = self.env.command_manager.get_command(self.cfg.command_name)
+            torch.any(command[:, :3] != 0.0, dim=1, out=self.walking)
+        self.target_draw.uniform_()
+        self.profile.draw()
+        self.interval_draw.uniform_()
+        wp.launch(_random_motion_step, dim=self.env.num_envs, inputs=self._step_args, device=self.profile.wp_device)
 
     def apply_actions(self) -> None:
         self.robot.joint_pos_target[:, self.joint_ids] = self.processed_actions
 
     def reset(self, env_mask: torch.Tensor) -> None:
         self.processed_actions.copy_(torch.where(env_mask.unsqueeze(-1), self.offset, self.processed_actions))
-        self.profile.plan(self.offset, self.offset, env_mask)
+        self.profile.plan(self.offset, self.offset, env_mask)  # at rest at the defaults
         self.time_left_s.copy_(torch.where(env_mask, self._sample_interval(), self.time_left_s))
 
 
