@@ -122,6 +122,32 @@ def test_masked_reset_touches_only_the_masked_worlds_of_the_named_entity():
     assert torch.equal(b.root_pose_w, before_b)
 
 
+def test_reset_root_is_the_default_pose_moved_and_turned_by_the_offsets():
+    """`Entity.reset_root` (one kernel) gives what the torch composition gives: the default position at the env
+    origin plus the offset, the default orientation turned by roll, pitch and yaw, the velocity as given; a fixed
+    body takes the pose and keeps its velocity; unmasked worlds keep theirs."""
+    from agile.utils.math import quat_from_euler_xyz, quat_mul
+
+    sim = make_sim({"box": RigidObjectCfg(shape=BoxShapeCfg(), init_pos_m=(0.1, -0.2, 0.3),
+                                          init_rot_xyzw=(0.0, 0.0, math.sin(0.3), math.cos(0.3))),
+                    "table": RigidObjectCfg(shape=BoxShapeCfg(), body_type="fixed", init_pos_m=(1.0, 0.0, 0.2))})
+    reset_all(sim)
+    sim.env_origins[1, 0] += 3.0
+    delta = torch.tensor([[0.1, 0.2, 0.3, 0.4, -0.5, 1.2], [-0.3, 0.0, 0.1, -0.2, 0.1, -2.9]])
+    velocity = torch.tensor([[1.0, 2.0, 3.0, 0.1, 0.2, 0.3], [-1.0, 0.5, 0.0, 0.0, -0.2, 0.4]])
+    for name in ("box", "table"):
+        entity = sim.scene[name]
+        before_pose, before_vel = entity.root_pose_w.clone(), entity.root_com_vel_w.clone()
+        entity.reset_root(delta, velocity, torch.tensor([True, True]))
+        position = entity.default_root_pose[:, :3] + (sim.env_origins + delta[:, :3])
+        quat = quat_mul(quat_from_euler_xyz(delta[:, 3], delta[:, 4], delta[:, 5]), entity.default_root_pose[:, 3:7])
+        torch.testing.assert_close(entity.root_pose_w, torch.cat((position, quat), dim=1), rtol=0.0, atol=1e-6)
+        torch.testing.assert_close(entity.root_com_vel_w, before_vel if entity.is_fixed_base else velocity)
+        entity.reset_root(delta * 2.0, velocity * 2.0, torch.tensor([False, False]))  # nothing masked: unchanged
+        torch.testing.assert_close(entity.root_pose_w, torch.cat((position, quat), dim=1), rtol=0.0, atol=1e-6)
+        assert not torch.equal(entity.root_pose_w, before_pose)
+
+
 def stacked_boxes(filter_entity: str) -> Simulation:
     """'hand' rests on a fixed 'table' and carries an 'object' (1 kg on 0.5 kg)."""
     half = BOX_EDGE_M / 2

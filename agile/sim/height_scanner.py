@@ -11,8 +11,9 @@ from __future__ import annotations
 import torch
 import warp as wp
 
-from agile.sim.entities.entity import Entity, yaw_of
+from agile.sim.entities.entity import Entity
 from agile.sim.scene_cfg import HeightScannerCfg
+from agile.utils.warp_math import yaw_of
 
 
 class TerrainHeights:

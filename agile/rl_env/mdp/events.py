@@ -10,7 +10,6 @@ import warp as wp
 
 from agile.actuators import ExplicitActuatorGroup
 from agile.rl_env.managers import ROBOT, SceneEntityCfg, index_list
-from agile.utils.math import quat_from_euler_xyz, quat_mul
 
 __all__ = ["apply_external_force_torque", "push_by_setting_velocity", "randomize_actuator_gains",
            "randomize_joint_parameters", "randomize_rigid_body_com", "randomize_rigid_body_mass",
@@ -41,13 +40,9 @@ def reset_root_state_uniform(env, env_mask: torch.Tensor, pose_range: dict, velo
                              asset_cfg: SceneEntityCfg = ROBOT) -> None:
     """Root at default pose + env origin + uniform offsets; root velocity uniform (world frame)."""
     robot = env.scene[asset_cfg.name]
-    n = env.num_envs
-    pose_delta = _sample_ranges(pose_range, n, env.device)
-    pose = robot.default_root_pose.clone()
-    pose[:, :3] += env.env_origins + pose_delta[:, :3]
-    pose[:, 3:7] = quat_mul(quat_from_euler_xyz(pose_delta[:, 3], pose_delta[:, 4], pose_delta[:, 5]), pose[:, 3:7])
-    velocity = _sample_ranges(velocity_range, n, env.device)
-    robot.write_root_state(pose, velocity, env_mask)
+    pose_delta = _sample_ranges(pose_range, env.num_envs, env.device)
+    velocity = _sample_ranges(velocity_range, env.num_envs, env.device)
+    robot.reset_root(pose_delta, velocity, env_mask)
 
 
 def reset_joints_by_scale(env, env_mask: torch.Tensor, position_range: tuple[float, float],

@@ -15,22 +15,9 @@ import torch
 import warp as wp
 
 from agile.sim.names import resolve_names
+from agile.utils.warp_math import quat_from_euler_xyz, quat_mul, rotate_inverse, yaw_of
 
 GRAVITY_DIR_W = (0.0, 0.0, -1.0)
-
-
-@wp.func
-def rotate_inverse(q_vec: wp.vec3, q_w: float, v: wp.vec3) -> wp.vec3:
-    """v rotated by the inverse of the unit quaternion (q_vec, q_w): world -> body frame (`quat_rotate_inverse`'s
-    arithmetic, term by term)."""
-    t = 2.0 * wp.cross(q_vec, v)
-    return v - q_w * t + wp.cross(q_vec, t)
-
-
-@wp.func
-def yaw_of(x: float, y: float, z: float, w: float) -> float:
-    """The yaw of a unit quaternion (x, y, z, w) [rad] (`yaw_from_quat`'s arithmetic)."""
-    return wp.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
 @wp.kernel(enable_backward=False)
@@ -49,6 +36,27 @@ def _root_frames(root_pose_w: wp.array2d(dtype=float), root_com_vel_w: wp.array2
         root_ang_vel_b[env, k] = ang[k]
         projected_gravity_b[env, k] = gravity[k]
     heading_w[env] = yaw_of(x, y, z, w)
+
+
+@wp.kernel(enable_backward=False)
+def _reset_root(mask: wp.array(dtype=wp.bool), default_root_pose: wp.array2d(dtype=float),
+                env_origins: wp.array2d(dtype=float), pose_delta: wp.array2d(dtype=float),
+                com_vel_w: wp.array2d(dtype=float), write_velocity: int, root_pose_w: wp.array2d(dtype=float),
+                root_com_vel_w: wp.array2d(dtype=float)):
+    env = wp.tid()
+    if not mask[env]:
+        return
+    for k in range(3):
+        root_pose_w[env, k] = default_root_pose[env, k] + (env_origins[env, k] + pose_delta[env, k])
+    turn = quat_from_euler_xyz(pose_delta[env, 3], pose_delta[env, 4], pose_delta[env, 5])
+    default_quat = wp.vec4(default_root_pose[env, 3], default_root_pose[env, 4], default_root_pose[env, 5],
+                           default_root_pose[env, 6])
+    quat = quat_mul(turn, default_quat)
+    for k in range(4):
+        root_pose_w[env, 3 + k] = quat[k]
+    if write_velocity != 0:
+        for k in range(6):
+            root_com_vel_w[env, k] = com_vel_w[env, k]
 
 
 @dataclass(frozen=True)
@@ -149,6 +157,7 @@ class Entity:
         self._root_frames_args = [wp.from_torch(t) for t in (self.root_pose_w, self.root_com_vel_w)] + [
             wp.vec3(*GRAVITY_DIR_W)] + [wp.from_torch(t) for t in (self.root_lin_vel_b, self.root_ang_vel_b,
                                                                   self.projected_gravity_b, self.heading_w)]
+        self._root_state_wp = [wp.from_torch(self.root_pose_w), wp.from_torch(self.root_com_vel_w)]
         self.wp_device = model.device
         """The Warp device of the simulation (where kernels on this entity's arrays launch)."""
 
@@ -221,6 +230,17 @@ class Entity:
         pose = pose_env.clone()
         pose[:, :3] += self.env_origins
         self.write_root_state(pose, com_vel_w, mask)
+
+    def reset_root(self, pose_delta: torch.Tensor, com_vel_w: torch.Tensor, mask: torch.Tensor) -> None:
+        """Where mask (N,) is True: the default root pose at the env origin, moved by pose_delta (N, 6: x, y, z
+        [m], then roll, pitch, yaw [rad] turning the default orientation), with root COM velocity com_vel_w
+        (N, 6, world frame); as `write_root_state` would be given them, in one kernel. Call `Simulation.forward`
+        after."""
+        inputs = [wp.from_torch(mask, dtype=wp.bool), wp.from_torch(self.default_root_pose),
+                  wp.from_torch(self.env_origins), wp.from_torch(pose_delta.contiguous()),
+                  wp.from_torch(com_vel_w.contiguous()), int(not self.is_fixed_base), *self._root_state_wp]
+        wp.launch(_reset_root, dim=self.num_envs, inputs=inputs, device=self.wp_device)
+        self._body_acc_valid.masked_fill_(mask.view(-1, 1, 1), False)
 
     def reset_to_default(self, mask: torch.Tensor) -> None:
         """Default root pose at the env origin, at rest, where mask (N,) is True."""
