@@ -37,52 +37,74 @@ class TrapezoidalVelocityProfileCfg:
     """How synchronized joints share a duration: 'max_time' (the slowest joint's minimum time)."""
 
 
+@wp.struct
+class Motions:
+    """The profile's state, (num_envs, num_joints) but for the per-env clock: Warp views of TrapezoidalProfile's
+    tensors."""
+
+    start: wp.array2d(dtype=float)
+    distance: wp.array2d(dtype=float)  # signed [rad]
+    acceleration: wp.array2d(dtype=float)
+    cruise_velocity: wp.array2d(dtype=float)  # unsigned [rad/s]
+    duration_s: wp.array2d(dtype=float)
+    elapsed_s: wp.array(dtype=float)
+
+
+@wp.struct
+class PlanInputs:
+    """What a plan reads besides where and whereto: uniform [0, 1) draws per joint, the joints' velocity limits, the
+    profile's settings (spans and ratio factors computed in double, as Python scalars are in torch)."""
+
+    acceleration_draw: wp.array2d(dtype=float)
+    velocity_draw: wp.array2d(dtype=float)
+    velocity_limit: wp.array2d(dtype=float)
+    acceleration_low: float
+    acceleration_span: float
+    velocity_low: float
+    velocity_span: float
+    one_minus_ratio: float
+    one_plus_ratio: float
+    synchronize: int
+
+
 @wp.func
-def _plan_env(env: int, plan_from: wp.array2d(dtype=float), target: wp.array2d(dtype=float),
-              acceleration_draw: wp.array2d(dtype=float), velocity_draw: wp.array2d(dtype=float),
-              velocity_limit: wp.array2d(dtype=float), acceleration_low: float, acceleration_span: float,
-              velocity_low: float, velocity_span: float, one_minus_ratio: float, one_plus_ratio: float,
-              synchronize: int, start: wp.array2d(dtype=float), distance: wp.array2d(dtype=float),
-              acceleration: wp.array2d(dtype=float), cruise_velocity: wp.array2d(dtype=float),
-              duration_s: wp.array2d(dtype=float), elapsed_s: wp.array(dtype=float)):
-    """A rest-to-rest motion of every joint of `env` from `plan_from` to `target` (see TrapezoidalProfile); each
-    joint's acceleration and velocity bound from its uniform [0, 1) draws. Written operation for operation as the
-    same expressions in torch would evaluate them (spans and ratio factors computed in double, as Python scalars
-    are), so that the CPU rollouts recorded before the kernel existed still match to the bit."""
-    num_joints = start.shape[1]
+def _plan_env(env: int, plan_from: wp.array2d(dtype=float), target: wp.array2d(dtype=float), p: PlanInputs,
+              m: Motions):
+    """A rest-to-rest motion of every joint of `env` from `plan_from` to `target` (see TrapezoidalProfile). Written
+    operation for operation as torch evaluates the same expressions, so that CPU rollouts stay close to the
+    recordings: they agree but for the rounding of sqrt, which Warp rounds correctly and torch's CPU kernel not."""
+    num_joints = m.start.shape[1]
     longest_s = float(0.0)
     for j in range(num_joints):  # each joint's minimum time, kept in duration_s until the shared one is known
         d = wp.abs(target[env, j] - plan_from[env, j])
-        a = acceleration_draw[env, j] * acceleration_span + acceleration_low
-        v_bound = wp.min(velocity_draw[env, j] * velocity_span + velocity_low, velocity_limit[env, j])
-        v_best = wp.min(v_bound, wp.sqrt(a * d * one_minus_ratio / one_plus_ratio))
+        a = p.acceleration_draw[env, j] * p.acceleration_span + p.acceleration_low
+        v_bound = wp.min(p.velocity_draw[env, j] * p.velocity_span + p.velocity_low, p.velocity_limit[env, j])
+        v_best = wp.min(v_bound, wp.sqrt(a * d * p.one_minus_ratio / p.one_plus_ratio))
         min_time_s = float(0.0)
         if v_best > 0.0:
             min_time_s = d / v_best + v_best / a
-        duration_s[env, j] = min_time_s
-        acceleration[env, j] = a
+        m.duration_s[env, j] = min_time_s
+        m.acceleration[env, j] = a
         longest_s = wp.max(longest_s, min_time_s)
     for j in range(num_joints):
-        T = duration_s[env, j]
-        if synchronize != 0:
+        T = m.duration_s[env, j]
+        if p.synchronize != 0:
             T = longest_s
-        a = acceleration[env, j]
+        a = m.acceleration[env, j]
         d = wp.abs(target[env, j] - plan_from[env, j])
-        cruise_velocity[env, j] = 0.5 * (a * T - wp.sqrt(wp.max(a * a * T * T - 4.0 * a * d, 0.0)))
-        distance[env, j] = target[env, j] - plan_from[env, j]
-        start[env, j] = plan_from[env, j]
-        duration_s[env, j] = T
-    elapsed_s[env] = 0.0
+        m.cruise_velocity[env, j] = 0.5 * (a * T - wp.sqrt(wp.max(a * a * T * T - 4.0 * a * d, 0.0)))
+        m.distance[env, j] = target[env, j] - plan_from[env, j]
+        m.start[env, j] = plan_from[env, j]
+        m.duration_s[env, j] = T
+    m.elapsed_s[env] = 0.0
 
 
 @wp.func
-def _position(env: int, j: int, start: wp.array2d(dtype=float), distance: wp.array2d(dtype=float),
-              acceleration: wp.array2d(dtype=float), cruise_velocity: wp.array2d(dtype=float),
-              duration_s: wp.array2d(dtype=float), elapsed_s: wp.array(dtype=float)) -> float:
-    a, v, T = acceleration[env, j], cruise_velocity[env, j], duration_s[env, j]
-    signed = distance[env, j]
+def _position(env: int, j: int, m: Motions) -> float:
+    a, v, T = m.acceleration[env, j], m.cruise_velocity[env, j], m.duration_s[env, j]
+    signed = m.distance[env, j]
     d = wp.abs(signed)
-    t = wp.min(elapsed_s[env], T)
+    t = wp.min(m.elapsed_s[env], T)
     t_acc = v / a
     travelled = d - 0.5 * a * ((T - t) * (T - t))  # decelerating
     if t < t_acc:
@@ -94,68 +116,50 @@ def _position(env: int, j: int, start: wp.array2d(dtype=float), distance: wp.arr
         direction = 1.0
     elif signed < 0.0:
         direction = -1.0
-    return start[env, j] + direction * travelled
+    return m.start[env, j] + direction * travelled
 
 
 @wp.kernel(enable_backward=False)
 def _plan(plan_from: wp.array2d(dtype=float), target: wp.array2d(dtype=float), mask: wp.array(dtype=wp.bool),
-          acceleration_draw: wp.array2d(dtype=float), velocity_draw: wp.array2d(dtype=float),
-          velocity_limit: wp.array2d(dtype=float), acceleration_low: float, acceleration_span: float,
-          velocity_low: float, velocity_span: float, one_minus_ratio: float, one_plus_ratio: float,
-          synchronize: int, start: wp.array2d(dtype=float), distance: wp.array2d(dtype=float),
-          acceleration: wp.array2d(dtype=float), cruise_velocity: wp.array2d(dtype=float),
-          duration_s: wp.array2d(dtype=float), elapsed_s: wp.array(dtype=float)):
+          p: PlanInputs, m: Motions):
     env = wp.tid()
     if mask[env]:
-        _plan_env(env, plan_from, target, acceleration_draw, velocity_draw, velocity_limit, acceleration_low,
-                  acceleration_span, velocity_low, velocity_span, one_minus_ratio, one_plus_ratio, synchronize, start,
-                  distance, acceleration, cruise_velocity, duration_s, elapsed_s)
+        _plan_env(env, plan_from, target, p, m)
 
 
 @wp.kernel(enable_backward=False)
-def _positions(start: wp.array2d(dtype=float), distance: wp.array2d(dtype=float),
-               acceleration: wp.array2d(dtype=float), cruise_velocity: wp.array2d(dtype=float),
-               duration_s: wp.array2d(dtype=float), elapsed_s: wp.array(dtype=float),
-               positions: wp.array2d(dtype=float)):
+def _positions(m: Motions, positions: wp.array2d(dtype=float)):
     env, j = wp.tid()
-    positions[env, j] = _position(env, j, start, distance, acceleration, cruise_velocity, duration_s, elapsed_s)
+    positions[env, j] = _position(env, j, m)
 
 
 @wp.kernel(enable_backward=False)
 def _random_motion_step(target_draw: wp.array2d(dtype=float), interval_draw: wp.array(dtype=float),
                         walking: wp.array(dtype=wp.bool), offset: wp.array2d(dtype=float),
                         position_low: wp.array2d(dtype=float), position_high: wp.array2d(dtype=float),
-                        interval_low_s: float, interval_span_s: float, step_dt_s: float,
-                        acceleration_draw: wp.array2d(dtype=float), velocity_draw: wp.array2d(dtype=float),
-                        velocity_limit: wp.array2d(dtype=float), acceleration_low: float, acceleration_span: float,
-                        velocity_low: float, velocity_span: float, one_minus_ratio: float, one_plus_ratio: float,
-                        synchronize: int, time_left_s: wp.array(dtype=float),
-                        target: wp.array2d(dtype=float), positions: wp.array2d(dtype=float),
-                        start: wp.array2d(dtype=float), distance: wp.array2d(dtype=float),
-                        acceleration: wp.array2d(dtype=float), cruise_velocity: wp.array2d(dtype=float),
-                        duration_s: wp.array2d(dtype=float), elapsed_s: wp.array(dtype=float)):
+                        interval_low_s: float, interval_span_s: float, step_dt_s: float, p: PlanInputs, m: Motions,
+                        time_left_s: wp.array(dtype=float), target: wp.array2d(dtype=float),
+                        positions: wp.array2d(dtype=float)):
     """One env step of RandomPositionAction for one env: a new motion from where the joints are once the interval
     is over and the running motion done, then the profile advanced and evaluated into `positions`."""
     env = wp.tid()
-    num_joints = start.shape[1]
+    num_joints = m.start.shape[1]
     time_left = time_left_s[env] - step_dt_s
     done = bool(True)
     for j in range(num_joints):
-        if elapsed_s[env] < duration_s[env, j]:
+        if m.elapsed_s[env] < m.duration_s[env, j]:
             done = False
     if time_left <= 0.0 and done:
         for j in range(num_joints):
             target[env, j] = target_draw[env, j] * (position_high[env, j] - position_low[env, j]) + position_low[env, j]
             if walking[env]:
                 target[env, j] = offset[env, j]
-        _plan_env(env, positions, target, acceleration_draw, velocity_draw, velocity_limit, acceleration_low,
-                  acceleration_span, velocity_low, velocity_span, one_minus_ratio, one_plus_ratio, synchronize, start,
-                  distance, acceleration, cruise_velocity, duration_s, elapsed_s)
+        _plan_env(env, positions, target, p, m)
         time_left = interval_draw[env] * interval_span_s + interval_low_s
     time_left_s[env] = time_left
-    elapsed_s[env] = elapsed_s[env] + step_dt_s
+    m.elapsed_s[env] = m.elapsed_s[env] + step_dt_s
     for j in range(num_joints):
-        positions[env, j] = _position(env, j, start, distance, acceleration, cruise_velocity, duration_s, elapsed_s)
+        positions[env, j] = _position(env, j, m)
 
 
 class TrapezoidalProfile:
@@ -191,13 +195,18 @@ class TrapezoidalProfile:
         """Uniform [0, 1) draws of a plan, per joint, by torch's generator (seeds and CUDA graphs as elsewhere)."""
         self.wp_device = wp.get_device(str(zeros.device))  # (initialises Warp if nothing has yet)
         (a_low, a_high), (v_low, v_high), r = cfg.acceleration_range, cfg.max_velocity_range, cfg.min_cruise_ratio
-        # Warp views of the same memory, made once (a kernel's arguments in order): what a plan reads, the state
-        self.plan_inputs_wp = [wp.from_torch(self.acceleration_draw), wp.from_torch(self.velocity_draw),
-                               wp.from_torch(self.velocity_limit_rad_s), float(a_low), float(a_high - a_low),
-                               float(v_low), float(v_high - v_low), float(1.0 - r), float(1.0 + r),
-                               int(cfg.synchronize_joints)]
-        self.state_wp = [wp.from_torch(t) for t in (self.start, self.distance, self.acceleration, self.cruise_velocity,
-                                                    self.duration_s, self.elapsed_s)]
+        # Warp views of the same memory, made once
+        self.plan_inputs = PlanInputs()
+        self.plan_inputs.acceleration_draw = wp.from_torch(self.acceleration_draw)
+        self.plan_inputs.velocity_draw = wp.from_torch(self.velocity_draw)
+        self.plan_inputs.velocity_limit = wp.from_torch(self.velocity_limit_rad_s)
+        self.plan_inputs.acceleration_low, self.plan_inputs.acceleration_span = float(a_low), float(a_high - a_low)
+        self.plan_inputs.velocity_low, self.plan_inputs.velocity_span = float(v_low), float(v_high - v_low)
+        self.plan_inputs.one_minus_ratio, self.plan_inputs.one_plus_ratio = float(1.0 - r), float(1.0 + r)
+        self.plan_inputs.synchronize = int(cfg.synchronize_joints)
+        self.motions = Motions()
+        for name in ("start", "distance", "acceleration", "cruise_velocity", "duration_s", "elapsed_s"):
+            setattr(self.motions, name, wp.from_torch(getattr(self, name)))
 
     @property
     def done(self) -> torch.Tensor:
@@ -209,7 +218,7 @@ class TrapezoidalProfile:
         self.draw()
         wp.launch(_plan, dim=self.elapsed_s.shape[0], device=self.wp_device,
                   inputs=[wp.from_torch(start.float().contiguous()), wp.from_torch(target.float().contiguous()),
-                          wp.from_torch(mask.contiguous(), dtype=wp.bool), *self.plan_inputs_wp, *self.state_wp])
+                          wp.from_torch(mask.contiguous(), dtype=wp.bool), self.plan_inputs, self.motions])
 
     def draw(self) -> None:
         """New draws for the next plan: every joint's acceleration, then its velocity bound."""
@@ -222,7 +231,7 @@ class TrapezoidalProfile:
     def position(self) -> torch.Tensor:
         """(num_envs, num_joints) positions at the elapsed time."""
         positions = torch.empty_like(self.start)
-        wp.launch(_positions, dim=tuple(self.start.shape), inputs=self.state_wp, outputs=[wp.from_torch(positions)],
+        wp.launch(_positions, dim=tuple(self.start.shape), inputs=[self.motions], outputs=[wp.from_torch(positions)],
                   device=self.wp_device)
         return positions
 
@@ -267,8 +276,8 @@ class RandomPositionAction(ActionTerm):
         self._step_args = [wp.from_torch(self.target_draw), wp.from_torch(self.interval_draw),
                            wp.from_torch(self.walking, dtype=wp.bool), wp.from_torch(self.offset), wp.from_torch(low),
                            wp.from_torch(high), float(interval_low_s), float(interval_high_s - interval_low_s),
-                           float(env.step_dt), *profile.plan_inputs_wp, wp.from_torch(self.time_left_s),
-                           wp.from_torch(self._target), wp.from_torch(self.processed_actions), *profile.state_wp]
+                           float(env.step_dt), profile.plan_inputs, profile.motions, wp.from_torch(self.time_left_s),
+                           wp.from_torch(self._target), wp.from_torch(self.processed_actions)]
         self.time_left_s.copy_(self._sample_interval())
         self.profile.plan(self.offset, self.offset, torch.ones(env.num_envs, dtype=torch.bool, device=env.device))
 
