@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import torch
 
+from agile.sim.entities.entity import body_yaw_in_frame
 from agile.sim.names import resolve_names
 
 
@@ -30,6 +31,9 @@ class FakeRobot:
 
     def find_joints(self, exprs, preserve_order=False):
         return resolve_names(exprs, self.joint_names, "joint", preserve_order)
+
+    def body_yaw_in_frame(self, body_ids, frame_body_ids):
+        return body_yaw_in_frame(self.body_pose_w, body_ids, frame_body_ids)
 
     def find_bodies(self, exprs, preserve_order=False):
         return resolve_names(exprs, self.body_names, "body", preserve_order)

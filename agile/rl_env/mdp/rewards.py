@@ -6,7 +6,7 @@ import torch
 
 from agile.rl_env.managers import ROBOT, SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
-from agile.utils.math import quat_conjugate, quat_mul, quat_rotate_inverse, wrap_to_pi, yaw_from_quat
+from agile.utils.math import quat_rotate_inverse, wrap_to_pi, yaw_from_quat
 
 __all__ = ["action_l2", "action_rate_l2", "action_rate_rate_l2", "ang_vel_xy_l2", "applied_torque_limits",
            "base_height_exp", "body_acc_l2", "body_ang_vel_l2", "body_projected_gravity", "equal_foot_force",
@@ -189,10 +189,7 @@ def feet_yaw_mean_vs_base(env, feet_asset_cfg: SceneEntityCfg, base_body_cfg: Sc
     turned in or out both cost, as does a base twisted against the feet) [rad²]."""
     if len(base_body_cfg.body_ids) != 1:
         raise ValueError(f"feet_yaw_mean_vs_base needs one base body, got {base_body_cfg.body_names}")
-    poses = env.scene[feet_asset_cfg.name].body_pose_w
-    feet_quat = poses[:, feet_asset_cfg.body_ids, 3:7]
-    base_quat = poses[:, base_body_cfg.body_ids, 3:7].expand_as(feet_quat)
-    yaw_in_base = yaw_from_quat(quat_mul(quat_conjugate(base_quat), feet_quat))
+    yaw_in_base = env.scene[feet_asset_cfg.name].body_yaw_in_frame(feet_asset_cfg.body_ids, base_body_cfg.body_ids)
     return torch.sum(torch.square(yaw_in_base), dim=1)
 
 

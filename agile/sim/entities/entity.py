@@ -59,6 +59,32 @@ def _reset_root(mask: wp.array(dtype=wp.bool), default_root_pose: wp.array2d(dty
             root_com_vel_w[env, k] = com_vel_w[env, k]
 
 
+@wp.kernel(enable_backward=False)
+def _yaw_in_frame(body_pose_w: wp.array3d(dtype=float), body_ids: wp.array(dtype=wp.int64),
+                  frame_body_ids: wp.array(dtype=wp.int64), yaw: wp.array2d(dtype=float)):
+    env, k = wp.tid()
+    body, frame = int(body_ids[k]), int(frame_body_ids[0])
+    frame_inverse = wp.vec4(-body_pose_w[env, frame, 3], -body_pose_w[env, frame, 4], -body_pose_w[env, frame, 5],
+                            body_pose_w[env, frame, 6])
+    q = quat_mul(frame_inverse, wp.vec4(body_pose_w[env, body, 3], body_pose_w[env, body, 4],
+                                        body_pose_w[env, body, 5], body_pose_w[env, body, 6]))
+    yaw[env, k] = yaw_of(q[0], q[1], q[2], q[3])
+
+
+def body_yaw_in_frame(body_pose_w: torch.Tensor, body_ids: torch.Tensor | slice,
+                      frame_body_ids: torch.Tensor) -> torch.Tensor:
+    """(N, B) yaw [rad] of the bodies `body_ids` (an index tensor or a full slice, as `SceneEntityCfg.body_ids`) in
+    the frame of the body `frame_body_ids` (1,), from poses (N, bodies, 7): the yaw of conj(q_frame) * q_body
+    (`math.quat_mul` and `math.yaw_from_quat`), in one kernel."""
+    if isinstance(body_ids, slice):
+        body_ids = torch.arange(body_pose_w.shape[1], device=body_pose_w.device)[body_ids]
+    yaw = torch.empty(body_pose_w.shape[0], len(body_ids), device=body_pose_w.device)
+    wp.launch(_yaw_in_frame, dim=tuple(yaw.shape), device=wp.get_device(str(body_pose_w.device)),
+              inputs=[wp.from_torch(body_pose_w), wp.from_torch(body_ids), wp.from_torch(frame_body_ids),
+                      wp.from_torch(yaw)])
+    return yaw
+
+
 @dataclass(frozen=True)
 class EntityLayout:
     """Where one entity's rows sit inside each world's block of Newton's arrays (every world holds the same
@@ -230,6 +256,11 @@ class Entity:
         pose = pose_env.clone()
         pose[:, :3] += self.env_origins
         self.write_root_state(pose, com_vel_w, mask)
+
+    def body_yaw_in_frame(self, body_ids: torch.Tensor | slice, frame_body_ids: torch.Tensor) -> torch.Tensor:
+        """(N, B) yaw [rad] of each body of `body_ids` in the frame of the body `frame_body_ids` (1,): see
+        `body_yaw_in_frame`."""
+        return body_yaw_in_frame(self.body_pose_w, body_ids, frame_body_ids)
 
     def reset_root(self, pose_delta: torch.Tensor, com_vel_w: torch.Tensor, mask: torch.Tensor) -> None:
         """Where mask (N,) is True: the default root pose at the env origin, moved by pose_delta (N, 6: x, y, z
