@@ -180,10 +180,11 @@ class Entity:
         self._body_acc_valid = torch.zeros(n, 1, 1, dtype=torch.bool, device=self.device)
         # Warp views of the same memory, made once: update() refreshes the derived root quantities in one kernel
         # (twice per env step: after physics and after the resets) instead of ~40 small torch kernels
-        self._root_frames_args = [wp.from_torch(t) for t in (self.root_pose_w, self.root_com_vel_w)] + [
-            wp.vec3(*GRAVITY_DIR_W)] + [wp.from_torch(t) for t in (self.root_lin_vel_b, self.root_ang_vel_b,
-                                                                  self.projected_gravity_b, self.heading_w)]
         self._root_state_wp = [wp.from_torch(self.root_pose_w), wp.from_torch(self.root_com_vel_w)]
+        self._root_frames_args = [*self._root_state_wp, wp.vec3(*GRAVITY_DIR_W)] + [
+            wp.from_torch(t) for t in (self.root_lin_vel_b, self.root_ang_vel_b, self.projected_gravity_b,
+                                       self.heading_w)]
+        self._reset_root_defaults_wp = [wp.from_torch(self.default_root_pose), wp.from_torch(self.env_origins)]
         self.wp_device = model.device
         """The Warp device of the simulation (where kernels on this entity's arrays launch)."""
 
@@ -267,9 +268,9 @@ class Entity:
         [m], then roll, pitch, yaw [rad] turning the default orientation), with root COM velocity com_vel_w
         (N, 6, world frame); as `write_root_state` would be given them, in one kernel. Call `Simulation.forward`
         after."""
-        inputs = [wp.from_torch(mask, dtype=wp.bool), wp.from_torch(self.default_root_pose),
-                  wp.from_torch(self.env_origins), wp.from_torch(pose_delta.contiguous()),
-                  wp.from_torch(com_vel_w.contiguous()), int(not self.is_fixed_base), *self._root_state_wp]
+        inputs = [wp.from_torch(mask, dtype=wp.bool), *self._reset_root_defaults_wp,
+                  wp.from_torch(pose_delta.contiguous()), wp.from_torch(com_vel_w.contiguous()),
+                  int(not self.is_fixed_base), *self._root_state_wp]
         wp.launch(_reset_root, dim=self.num_envs, inputs=inputs, device=self.wp_device)
         self._body_acc_valid.masked_fill_(mask.view(-1, 1, 1), False)
 

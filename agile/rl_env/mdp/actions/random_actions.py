@@ -85,15 +85,15 @@ def _plan_env(env: int, plan_from: wp.array2d(dtype=float), target: wp.array2d(d
             min_time_s = d / v_best + v_best / a
         m.duration_s[env, j] = min_time_s
         m.acceleration[env, j] = a
+        m.distance[env, j] = target[env, j] - plan_from[env, j]
         longest_s = wp.max(longest_s, min_time_s)
     for j in range(num_joints):
         T = m.duration_s[env, j]
         if p.synchronize != 0:
             T = longest_s
         a = m.acceleration[env, j]
-        d = wp.abs(target[env, j] - plan_from[env, j])
+        d = wp.abs(m.distance[env, j])
         m.cruise_velocity[env, j] = 0.5 * (a * T - wp.sqrt(wp.max(a * a * T * T - 4.0 * a * d, 0.0)))
-        m.distance[env, j] = target[env, j] - plan_from[env, j]
         m.start[env, j] = plan_from[env, j]
         m.duration_s[env, j] = T
     m.elapsed_s[env] = 0.0
