@@ -70,6 +70,24 @@ def test_fields_keep_their_written_order_or_the_class_is_refused():
             b: int = 2
 
 
+@configclass
+class WithOptionalGroup:
+    group: Inner | None = None
+    extras: dict | None = None
+
+
+def test_an_unset_config_group_is_switched_on_by_a_dict_override():
+    cfg = WithOptionalGroup()
+    apply_overrides({"agent": cfg}, ["agent.group={}", "agent.extras={'a': 1}"])
+    assert cfg.group == Inner() and cfg.extras == {"a": 1}  # the group built from its defaults; a plain dict stays
+    apply_overrides({"agent": cfg}, ["agent.group=null"])
+    assert cfg.group is None
+    apply_overrides({"agent": cfg}, ["agent.group={'weight': 2.0}"])
+    assert cfg.group.weight == 2.0 and cfg.group.names == [".*"]
+    with pytest.raises(ConfigError, match=r"'agent.group' \(Inner\) has no field 'wieght'. Fields: \['weight', 'names'\]"):
+        apply_overrides({"agent": WithOptionalGroup()}, ["agent.group={'wieght': 2.0}"])
+
+
 def test_parse_value():
     assert parse_value("1e-3") == 1e-3
     assert parse_value("[1, 2]") == [1, 2]

@@ -27,8 +27,10 @@ def test_eval_all_tiny_cpu_setting(tmp_path, task):
     metrics = json.loads((out / f"{task}.json").read_text())
     assert metrics["criteria_checked"] is False and metrics["device"] == "cpu" and metrics["num_envs"] == 2
     assert metrics["episodes"] == 2  # two envs, one 1 s episode each
-    # every criterion was measured (episode metrics such as a motion's body error among episode_metrics)
-    assert set(metrics["criteria"]) <= set(metrics) | set(metrics.get("episode_metrics", {}))
+    # every criterion was measured (episode metrics such as a motion's body error among episode_metrics, a bound on
+    # each commanded band among the error breakdowns)
+    assert set(metrics["criteria"]) <= (set(metrics) | set(metrics.get("episode_metrics", {}))
+                                        | set(metrics["error_by_command"]))
     assert all(isinstance(v, float) and v == v for v in metrics["reward_per_step"].values())
     if "lin_vel_error_mps" in metrics["criteria"]:
         by_speed = metrics["error_by_command"]["lin_vel_error_mps_by_speed_mps"]
@@ -65,3 +67,25 @@ def test_verdict_fails_a_checked_run_that_misses_a_criterion(monkeypatch):
     assert "FAIL: fall_rate 0.2 > 0.05" in report_markdown([result], plots=[])
     assert verdict({**result, "criteria_checked": False})[0] == "not checked"
     assert verdict({**result, "fall_rate": 0.01})[0] == "pass"
+
+
+def test_the_report_shows_a_tasks_own_height_criterion_and_its_bands(tmp_path):
+    """HeightTracking's height error is an episode metric bounded overall and in each commanded band: the report's
+    height column shows it, a band over its bound fails the run, and the by-command plot draws the bands."""
+    from agile.run.eval_all import plot_error_by_command, report_markdown, verdict
+
+    bands = [{"command": [0.0, 0.4], "steps": 10, "error": 0.03}, {"command": [0.4, 0.9], "steps": 10, "error": 0.07}]
+    result = {"task": "HeightTracking-G1-v0", "kind": "trainable", "device": "cuda:0", "num_envs": 256,
+              "num_episodes": 1, "episode_length_s": 15.0, "fall_rate": 0.0, "mean_episode_length_s": 15.0,
+              "reward_per_step": {"track": 1.0}, "episode_metrics": {"height/height_error_m": 0.045},
+              "error_by_command": {"height_error_m_by_height_m": bands},
+              "criteria": {"fall_rate": 0.05, "height/height_error_m": 0.05, "height_error_m_by_height_m": 0.05},
+              "criteria_checked": True}
+    assert verdict(result) == ("FAIL", ["height_error_m_by_height_m [0.4, 0.9) 0.07 > 0.05"])
+    assert "| 0.000 | - | - | 0.045 | 15.00 | FAIL" in report_markdown([result], plots=[])
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    assert (tmp_path / plot_error_by_command(result, str(tmp_path), plt)).is_file()

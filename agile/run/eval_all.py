@@ -103,6 +103,8 @@ def verdict(result: dict) -> tuple[str, list[str]]:
 
 
 def report_markdown(results: list[dict], plots: list[str]) -> str:
+    from agile.tasks.catalogue import criterion_values
+
     made_at = sorted({f"{r.get('device_name', r['device'])} at commit {r.get('commit', 'unknown')}" for r in results})
     lines = ["# Evaluation of the shipped policies", "",
              "Written by `agile eval_all`: every task of kind trainable or distilled with a shipped policy "
@@ -114,9 +116,12 @@ def report_markdown(results: list[dict], plots: list[str]) -> str:
     lines += ["| task | kind | device | envs x episodes x length | fall rate | vel error [m/s] | yaw-rate error [rad/s] "
               "| height error [m] | episode length [s] | verdict |", "|" + "---|" * 10]
     for r in results:
-        # a task without a velocity (or height) command has no such error: "-"
-        errors = [f"{r[k]:.3f}" if k in r else "-" for k in ("lin_vel_error_mps", "ang_vel_error_radps",
-                                                              "base_height_error_m")]
+        # a task without a velocity (or height) command has no such error: "-"; the height column is the base-height
+        # command's error, or the task's own height criterion (HeightTracking's tracked point, an episode metric)
+        height = next((name for name in ("base_height_error_m", *r["criteria"]) if name.endswith("height_error_m")
+                       and criterion_values(r, name, breakdown=False)[0][1] is not None), None)
+        errors = [f"{r[k]:.3f}" if k in r else "-" for k in ("lin_vel_error_mps", "ang_vel_error_radps")]
+        errors.append("-" if height is None else f"{criterion_values(r, height, breakdown=False)[0][1]:.3f}")
         state, missed = verdict(r)
         lines.append(f"| {r['task']} | {r['kind']} | {r['device']} | {r['num_envs']} x {r['num_episodes']} x "
                      f"{r['episode_length_s']:g} s | {r['fall_rate']:.3f} | {' | '.join(errors)} | "
@@ -174,7 +179,7 @@ def plot_results(results: list[dict], out_dir: str) -> list[str]:
         fig.savefig(os.path.join(out_dir, name), dpi=110)
         plt.close(fig)
         names.append(name)
-        if r["error_by_command"]:  # none without a velocity command
+        if any(r["error_by_command"].values()):  # none without a command, or where no episode ended in a bin
             names.append(plot_error_by_command(r, out_dir, plt))
     return names
 
@@ -189,6 +194,7 @@ ERROR_BY_COMMAND_AXES = {
     "ang_vel_error_radps_by_yaw_rate_radps": ("ang_vel_error_radps", "commanded |yaw rate| [rad/s]",
                                               "yaw-rate error [rad/s]"),
     "base_height_error_m_by_height_m": ("base_height_error_m", "commanded base height [m]", "height error [m]"),
+    "height_error_m_by_height_m": ("height_error_m_by_height_m", "commanded height [m]", "height error [m]"),
 }
 """eval.py's error-by-command keys: (the metric it splits, x label, y label)."""
 
@@ -204,8 +210,10 @@ def plot_error_by_command(result: dict, out_dir: str, plt) -> str:
         ax.set_xticks(range(len(rows)), [bin_label(row["command"]) for row in rows], fontsize=8)
         ax.set_xlabel(x_label)
         ax.set_ylabel(y_label)
-        if metric in result["criteria"]:
-            ax.axhline(result["criteria"][metric], color="r", label="maximum (of the mean over all commands)")
+        if metric in result["criteria"]:  # a bound on the mean over all commands, or on each bin's (a by-command key)
+            per_bin = metric == key
+            ax.axhline(result["criteria"][metric], color="r",
+                       label="maximum (of each bin)" if per_bin else "maximum (of the mean over all commands)")
             ax.legend(fontsize=7)
     fig.suptitle(f"{result['task']}: tracking error by command")
     fig.tight_layout()

@@ -15,6 +15,7 @@ import dataclasses
 import importlib
 import inspect
 import math
+import typing
 from collections.abc import Callable
 from typing import Any
 
@@ -120,11 +121,31 @@ def set_by_path(cfg, path: str, value, root_name: str = "cfg") -> None:
     parent_path, _, name = path.rpartition(".")
     parent = get_by_path(cfg, parent_path, root_name) if parent_path else cfg
     walked = f"{root_name}.{parent_path}" if parent_path else root_name
-    new = _coerce(_child(parent, name, walked), value, f"{walked}.{name}")
+    current = _child(parent, name, walked)
+    if current is None and isinstance(value, dict) and dataclasses.is_dataclass(parent):
+        new = _config_group_from_dict(parent, name, value, f"{walked}.{name}")
+    else:
+        new = _coerce(current, value, f"{walked}.{name}")
     if isinstance(parent, dict):
         parent[name] = new
     else:
         setattr(parent, name, new)
+
+
+def _config_group_from_dict(parent, name: str, values: dict, path: str):
+    """An unset optional config group (`field: SomeCfg | None = None`) switched on by an override such as
+    `agent.algorithm.l2c2={}` or `...={'actor_weight': 0.5}`: the group built from its defaults and those values.
+    A field that is not a config group keeps the dict as it is."""
+    hint = typing.get_type_hints(type(parent)).get(name)
+    groups = [t for t in typing.get_args(hint) or (hint,) if isinstance(t, type) and dataclasses.is_dataclass(t)]
+    if not groups:
+        return values
+    group = groups[0]
+    names = [f.name for f in dataclasses.fields(group)]
+    unknown = sorted(set(values) - set(names))
+    if unknown:
+        raise ConfigError(f"'{path}' ({group.__name__}) has no field {unknown[0]!r}. Fields: {names}")
+    return group(**values)
 
 
 def same_setting(current, text: str) -> bool:
