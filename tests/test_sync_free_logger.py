@@ -122,3 +122,77 @@ def test_the_episode_extras_are_averaged_over_the_steps_as_rsl_rl_averages_them(
     sync_free.ep_extras = list(floats)
     sync_free.average_episode_extras()
     assert sync_free.ep_extras == floats
+
+
+class RecordingWriter:
+    """A tensorboard writer that keeps what it is given, as the floats tensorboard stores."""
+
+    def __init__(self):
+        self.scalars = []
+
+    def add_scalar(self, tag, value, step):
+        self.scalars.append((tag, float(value), step))
+
+
+def rollouts(device: str, iterations: int) -> list[list[tuple]]:
+    """Per iteration, 24 env steps of (rewards, dones, extras with 6 keys) on `device`."""
+    generator = torch.Generator().manual_seed(2)
+    return [[(torch.randn(NUM_ENVS, generator=generator).to(device),
+              (torch.rand(NUM_ENVS, generator=generator) < 0.2).long().to(device),
+              {"log": {f"Episode_Reward/term_{k}": torch.randn((), generator=generator).to(device) for k in range(5)}
+               | {"Metrics/error": torch.rand((), generator=generator).to(device)}}) for _ in range(24)]
+            for _ in range(iterations)]
+
+
+def logged(cls, device: str, steps: list[list[tuple]]) -> tuple[list, str]:
+    """(tensorboard scalars, console text) of logging each rollout of `steps` after its env steps."""
+    import contextlib
+    import io
+
+    made = cls(log_dir=None, cfg={"num_steps_per_env": 24, "algorithm": {}}, env_cfg={}, num_envs=NUM_ENVS,
+               is_distributed=False, gpu_world_size=1, gpu_global_rank=0, device=device)
+    made.writer = RecordingWriter()
+    action_std = torch.full((12,), 0.3, device=device)
+    text = io.StringIO()
+    for it, rollout in enumerate(steps):
+        for rewards, dones, extras in rollout:
+            made.process_env_step(rewards, dones, extras)
+        with contextlib.redirect_stdout(text):
+            made.log(it=it, start_it=0, total_it=len(steps), collect_time=0.25, learn_time=0.05,
+                     loss_dict={"surrogate": 0.1, "value": 2.0}, learning_rate=1e-3, action_std=action_std,
+                     rnd_weight=None)
+    return made.writer.scalars, text.getvalue()
+
+
+def test_the_log_writes_what_rsl_rls_writes():
+    """Averaged on the host (one copy) instead of per key on the logger's device: the same tags, steps and values
+    (to float rounding of the means' summation order) and the same console block, but for the timings' lines."""
+    plain_scalars, plain_text = logged(Logger, "cpu", rollouts("cpu", 3))
+    scalars, text = logged(SyncFreeLogger, "cpu", rollouts("cpu", 3))
+    assert [(tag, step) for tag, _, step in scalars] == [(tag, step) for tag, _, step in plain_scalars]
+    assert [value for _, value, _ in scalars] == pytest.approx([value for _, value, _ in plain_scalars], rel=1e-5)
+    untimed = [line for line in text.splitlines() if "time" not in line.lower() and "ETA" not in line]
+    assert untimed == [line for line in plain_text.splitlines() if "time" not in line.lower() and "ETA" not in line]
+    assert "Episode_Reward/term_4:" in text and "Metrics/error:" in text
+
+
+@pytest.mark.gpu
+def test_the_log_reads_the_gpu_back_a_few_times_not_per_key():
+    import warnings
+
+    def synchronisations(cls) -> int:
+        steps = rollouts("cuda", 1)  # on the GPU before counting
+        torch.cuda.synchronize()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            torch.cuda.set_sync_debug_mode("warn")
+            try:
+                logged(cls, "cuda", steps)
+            finally:
+                torch.cuda.set_sync_debug_mode("default")
+        return sum("synchroniz" in str(w.message) for w in caught)
+
+    # rsl-rl's: one per env step (its episode bookkeeping) and two per extras key; ours: the episodes' flush, the
+    # means' one copy, the action std's
+    plain, sync_free = synchronisations(Logger), synchronisations(SyncFreeLogger)
+    assert sync_free <= 6 < 24 < plain, (sync_free, plain)

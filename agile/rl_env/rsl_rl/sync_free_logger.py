@@ -70,23 +70,34 @@ class SyncFreeLogger(Logger):
         self.lenbuffer.extend(self.ended_length_steps[:self.steps_held][ended].tolist())
         self.steps_held = 0
 
-    def average_episode_extras(self) -> None:
-        """Replace the held steps' extras by their means over the steps, where every step holds the same keys as
-        0-d tensors (the env's `extras["log"]`): rsl-rl's `log` then averages one value per key, the same means,
-        instead of concatenating every step's value of every key one small op at a time (58 keys x 24 steps for
-        G1: ~3,000 launches an iteration, the GPU idle meanwhile)."""
+    def average_episode_extras(self) -> bool:
+        """Replace the held steps' extras by their means over the steps, on the host, where every step holds the same
+        keys as 0-d tensors (the env's `extras["log"]`): rsl-rl's `log` then averages one value per key, the same
+        means, instead of concatenating every step's value of every key one small op at a time (58 keys x 24 steps
+        for G1: ~3,000 launches an iteration) and reading each key's mean back with two synchronisations (for
+        tensorboard and for the console). The means come to the host in one copy. Whether it replaced them."""
         extras = self.ep_extras
         if not extras:
-            return
+            return False
         keys = list(extras[0])
         scalar_tensors = all(isinstance(value, torch.Tensor) and value.dim() == 0 for value in extras[0].values())
         if not keys or not scalar_tensors or any(list(step) != keys for step in extras):
-            return
+            return False
         per_step = torch.stack([torch.stack([value.float() for value in step.values()]) for step in extras])
-        self.ep_extras = [dict(zip(keys, per_step.mean(dim=0).unsqueeze(1)))]
+        self.ep_extras = [dict(zip(keys, per_step.mean(dim=0).cpu().unsqueeze(1)))]
+        return True
 
     def log(self, **kwargs) -> None:
         self.flush_ended_episodes()
-        if self.writer is not None:
-            self.average_episode_extras()
-        super().log(**kwargs)
+        if self.writer is None or not self.average_episode_extras():
+            super().log(**kwargs)
+            return
+        # rsl-rl's log gathers each key's values on `self.device` before averaging them; they are on the host now, so
+        # it gathers them there (the logger's device is read nowhere else in `log`). The action std is read twice: once.
+        if isinstance(kwargs.get("action_std"), torch.Tensor):
+            kwargs["action_std"] = kwargs["action_std"].mean().cpu()
+        device, self.device = self.device, torch.device("cpu")
+        try:
+            super().log(**kwargs)
+        finally:
+            self.device = device
