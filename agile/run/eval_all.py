@@ -118,10 +118,11 @@ def report_markdown(results: list[dict], plots: list[str]) -> str:
     for r in results:
         # a task without a velocity (or height) command has no such error: "-"; the height column is the base-height
         # command's error, or the task's own height criterion (HeightTracking's tracked point, an episode metric)
-        height = next((name for name in ("base_height_error_m", *r["criteria"]) if name.endswith("height_error_m")
-                       and criterion_values(r, name, breakdown=False)[0][1] is not None), None)
+        heights = [criterion_values(r, name, breakdown=False)[0][1] for name in ("base_height_error_m", *r["criteria"])
+                   if name.endswith("height_error_m")]
+        height = next((value for value in heights if value is not None), None)
         errors = [f"{r[k]:.3f}" if k in r else "-" for k in ("lin_vel_error_mps", "ang_vel_error_radps")]
-        errors.append("-" if height is None else f"{criterion_values(r, height, breakdown=False)[0][1]:.3f}")
+        errors.append("-" if height is None else f"{height:.3f}")
         state, missed = verdict(r)
         lines.append(f"| {r['task']} | {r['kind']} | {r['device']} | {r['num_envs']} x {r['num_episodes']} x "
                      f"{r['episode_length_s']:g} s | {r['fall_rate']:.3f} | {' | '.join(errors)} | "

@@ -134,7 +134,7 @@ def set_by_path(cfg, path: str, value, root_name: str = "cfg") -> None:
 
 def _config_group_from_dict(parent, name: str, values: dict, path: str):
     """An unset optional config group (`field: SomeCfg | None = None`) switched on by an override such as
-    `agent.algorithm.l2c2={}` or `...={'actor_weight': 0.5}`: the group built from its defaults and those values.
+    `agent.algorithm.l2c2={}` or `agent.algorithm.l2c2={'lambda_actor': 0.5}`: the group built from its defaults and those values.
     A field that is not a config group keeps the dict as it is."""
     hint = typing.get_type_hints(type(parent)).get(name)
     groups = [t for t in typing.get_args(hint) or (hint,) if isinstance(t, type) and dataclasses.is_dataclass(t)]
