@@ -215,6 +215,7 @@ def plot_error_by_command(result: dict, out_dir: str, plt) -> str:
             per_bin = metric == key
             ax.axhline(result["criteria"][metric], color="r",
                        label="maximum (of each bin)" if per_bin else "maximum (of the mean over all commands)")
+            ax.set_ylim(top=max(ax.get_ylim()[1], 1.15 * result["criteria"][metric]))  # the line inside the plot
             ax.legend(fontsize=7)
     fig.suptitle(f"{result['task']}: tracking error by command")
     fig.tight_layout()
