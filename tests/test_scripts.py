@@ -261,6 +261,9 @@ def test_benchmark_runs_on_cpu(tmp_path):
     # T1 on a terrain touches the ground with both feet: rows and contacts were used, none past the cap
     assert 0 < row["peak_constraint_rows_per_world"] <= row["njmax"] and row["constraint_row_overflows"] == 0
     assert 0 < row["peak_contacts_mean_per_world"] <= row["contact_capacity_per_world"]
+    # the training's iteration without a run's start and end (two runs differenced), and the shorter run's with them
+    assert row["iteration_s"] > 0 and row["iteration_with_run_ends_s"] > 0
+    assert row["train"] == pytest.approx(2 * 24 / row["iteration_s"])  # 2 envs x 24 steps an iteration
 
 
 def test_play_and_eval_run_a_checkpoint(trained_run, tmp_path):

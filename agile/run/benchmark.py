@@ -6,7 +6,9 @@
 For each env count, from one process on one device: raw physics (the captured decimation loop alone, no
 managers, from the state the env has after one second of random actions), env.step with random actions and
 its ratio to raw physics, PPO training (rollout + update, with the training's runner, logger and NaN check as
-`agile train` runs them, logging into a temporary folder) and its ratio, startup (gym.make to the first step
+`agile train` runs them, logging into a temporary folder; per iteration of a long training: two runs of N and 2N
+iterations differenced, so that a run's start and end, its log opened and closed and its last checkpoint saved, are
+left out; the shorter run's mean with them is reported too) and its ratio, startup (gym.make to the first step
 done), device memory in use, the share of the env step spent in the explicit actuators (raw physics with and
 without them), the solver iterations of the slowest world under raw physics and under env.step (untimed),
 and where a training iteration's time goes (env steps, policy inference and rollout storage, PPO update: each phase
@@ -192,6 +194,15 @@ def time_training_timeline(runner, env, iterations: int) -> dict | None:
     return {**{name: value / iterations for name, value in seconds.items()}, "loop_s": loop_s / iterations}
 
 
+def timed_learn(runner, iterations: int) -> float:
+    """Seconds of `runner.learn(iterations)`, the device's queued work done before and after."""
+    synchronize(runner.device)
+    start = time.perf_counter()
+    runner.learn(iterations)
+    synchronize(runner.device)
+    return time.perf_counter() - start
+
+
 def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterations: int) -> dict:
     import torch
 
@@ -234,11 +245,16 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     with tempfile.TemporaryDirectory() as log_dir, cli.quiet_stdout():
         runner = training_runner(env, agent_cfg, log_dir)
         runner.learn(1)  # warm-up: allocations, first update
-        synchronize(env.device)
-        start = time.perf_counter()
-        runner.learn(train_iterations)  # its end saves a checkpoint, as every training's does
-        synchronize(env.device)
-        iteration_s = (time.perf_counter() - start) / train_iterations
+        short_s = timed_learn(runner, train_iterations)
+        long_s = timed_learn(runner, 2 * train_iterations)
+    # Each `learn` also opens the log, saves a checkpoint at its end and closes the log, once a run (a training of
+    # thousands of iterations spreads that over all of them): the difference of two runs, N and 2N iterations long,
+    # is N iterations without it, the training's iteration; the shorter run's mean is kept too
+    iteration_s = (long_s - short_s) / train_iterations
+    if not iteration_s > 0.0:
+        raise RuntimeError(f"training timed {long_s:.3f} s for {2 * train_iterations} iterations and {short_s:.3f} s "
+                           f"for {train_iterations}: time more (--train_iterations)")
+    iteration_with_run_ends_s = short_s / train_iterations
     train = n * agent_cfg.num_steps_per_env / iteration_s
     phases = time_training_phases(runner, runner.env, train_iterations)
     timeline = time_training_timeline(runner, runner.env, train_iterations)
@@ -256,7 +272,9 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
               "train": train, "train_ratio": train / raw, "startup_s": startup_s, "device_memory_gb": memory,
               "solver_iterations_slowest_world_raw": raw_iterations,
               "solver_iterations_slowest_world_env_step": env_step_iterations,
-              "iteration_s": iteration_s, **{f"iteration_{phase}": value for phase, value in phases.items()},
+              "iteration_s": iteration_s, "iteration_with_run_ends_s": iteration_with_run_ends_s,
+              "train_with_run_ends": n * agent_cfg.num_steps_per_env / iteration_with_run_ends_s,
+              **{f"iteration_{phase}": value for phase, value in phases.items()},
               "iteration_gpu_timeline": timeline,
               **buffers}
     if flat_raw is not None:
@@ -305,12 +323,13 @@ def main(argv=None) -> None:
         print(f"{r['num_envs']:>7} {r['raw_physics']:>12.0f} {r['env_step']:>10.0f} {r['env_step_ratio']:>6.2f} "
               f"{r['train']:>10.0f} {r['train_ratio']:>6.2f} {r['startup_s']:>9.1f} {mem:>7} "
               f"{100 * r['actuator_share_of_env_step']:>8.1f}%")
-    print("\nwhere a PPO iteration goes (s): the runner's iteration, then its phases timed one by one (env steps, "
-          "policy inference and rollout storage, PPO update)")
-    print(f"{'envs':>7} {'iteration':>10} {'env steps':>10} {'policy':>8} {'update':>8}")
+    print("\nwhere a PPO iteration goes (s): the runner's iteration (and with a short run's start and end), then its "
+          "phases timed one by one (env steps, policy inference and rollout storage, PPO update)")
+    print(f"{'envs':>7} {'iteration':>10} {'with ends':>10} {'env steps':>10} {'policy':>8} {'update':>8}")
     for r in rows:
-        print(f"{r['num_envs']:>7} {r['iteration_s']:>10.3f} {r['iteration_env_steps_s']:>10.3f} "
-              f"{r['iteration_policy_and_storage_s']:>8.3f} {r['iteration_update_s']:>8.3f}")
+        print(f"{r['num_envs']:>7} {r['iteration_s']:>10.3f} {r['iteration_with_run_ends_s']:>10.3f} "
+              f"{r['iteration_env_steps_s']:>10.3f} {r['iteration_policy_and_storage_s']:>8.3f} "
+              f"{r['iteration_update_s']:>8.3f}")
     timelines = [r for r in rows if r["iteration_gpu_timeline"]]
     if timelines:
         print("\nthe same phases on the GPU's clock, unsynchronised (s per iteration; a phase includes the GPU's wait "
