@@ -13,6 +13,7 @@ import warp as wp
 
 from agile.sim.entities.entity import Entity
 from agile.sim.scene_cfg import HeightScannerCfg
+from agile.sim.terrain_contacts import heightfield_cell
 from agile.utils.warp_math import yaw_of
 
 
@@ -34,14 +35,9 @@ class TerrainHeights:
 @wp.func
 def terrain_height(heights_m: wp.array2d(dtype=float), origin_x_m: float, origin_y_m: float, scale_m: float,
                    x_m: float, y_m: float) -> float:
-    """The height field's surface height at (x, y) [m]; outside the grid the border's edge height continues (the
-    border is flat)."""
-    num_x, num_y = heights_m.shape[0], heights_m.shape[1]
-    u = wp.clamp((x_m - origin_x_m) / scale_m, 0.0, float(num_x) - 1.0001)
-    v = wp.clamp((y_m - origin_y_m) / scale_m, 0.0, float(num_y) - 1.0001)
-    i, j = wp.floor(u), wp.floor(v)
-    fu, fv = u - i, v - j
-    row, col = int(i), int(j)
+    """The height field's surface height at (x, y) [m], on the triangle of its cell under (x, y) (`heightfield_cell`,
+    as the terrain contacts see it)."""
+    row, col, fu, fv = heightfield_cell(heights_m, origin_x_m, origin_y_m, scale_m, x_m, y_m)
     z00, z10 = heights_m[row, col], heights_m[row + 1, col]
     z01, z11 = heights_m[row, col + 1], heights_m[row + 1, col + 1]
     if fu + fv <= 1.0:

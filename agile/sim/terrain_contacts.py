@@ -8,7 +8,7 @@ solver needs from the terrain is a few points per collider, as MuJoCo's own plan
 
 - probe points: a sphere's centre, a capsule's two end centres (with the radius), a box's eight corners, a
   cylinder's three lowest points on each cap rim; each against the triangle under it (the surface normal and
-  height of that triangle, split as `TerrainHeights` splits a cell);
+  height of that triangle, split as `heightfield_cell` splits a cell);
 - height samples inside a box: a ridge or bump under a sole (the box-grid terrains) pushes on the face it
   entered through, which corner probes alone would miss.
 
@@ -49,20 +49,27 @@ def _shape_pose(shape: int, body_q: wp.array(dtype=wp.transform), shape_body: wp
 
 
 @wp.func
+def heightfield_cell(heights: wp.array2d(dtype=float), origin_x_m: float, origin_y_m: float, spacing_m: float,
+                     x_m: float, y_m: float):
+    """(i, j, fu, fv): the height-field cell under (x, y) and the fractions of the way across it; outside the grid,
+    the edge cell (the border is flat). A cell is two triangles split along the diagonal from (i, j+1) to (i+1, j),
+    as MuJoCo builds its height-field prisms: fu + fv <= 1 is the one with (i, j)."""
+    u = wp.clamp((x_m - origin_x_m) / spacing_m, 0.0, float(heights.shape[0]) - 1.0001)
+    v = wp.clamp((y_m - origin_y_m) / spacing_m, 0.0, float(heights.shape[1]) - 1.0001)
+    i = wp.floor(u)
+    j = wp.floor(v)
+    return int(i), int(j), u - i, v - j
+
+
+@wp.func
 def _triangle_under(heights: wp.array2d(dtype=float), origin: wp.vec2, spacing: float, p: wp.vec3):
     """A vertex and the upward unit normal of the height-field triangle under p (outside the grid, the edge cell)."""
-    nx = heights.shape[0]
-    ny = heights.shape[1]
-    u = wp.clamp((p[0] - origin[0]) / spacing, 0.0, float(nx) - 1.0001)
-    v = wp.clamp((p[1] - origin[1]) / spacing, 0.0, float(ny) - 1.0001)
-    i = int(wp.floor(u))
-    j = int(wp.floor(v))
+    i, j, fu, fv = heightfield_cell(heights, origin[0], origin[1], spacing, p[0], p[1])
     x0 = origin[0] + float(i) * spacing
     y0 = origin[1] + float(j) * spacing
-    # the diagonal runs from (i, j+1) to (i+1, j), as in MuJoCo's prisms and `TerrainHeights`
     z01 = heights[i, j + 1]
     z10 = heights[i + 1, j]
-    if (u - float(i)) + (v - float(j)) <= 1.0:
+    if fu + fv <= 1.0:
         z00 = heights[i, j]
         vertex = wp.vec3(x0, y0, z00)
         normal = wp.vec3(-(z10 - z00) / spacing, -(z01 - z00) / spacing, 1.0)
