@@ -52,3 +52,15 @@ def test_the_gpu_timeline_splits_an_iteration_into_its_phases(tmp_path):
 
 def test_the_gpu_timeline_is_for_cuda_only(t1_env):
     assert time_training_timeline(runner=None, env=t1_env, iterations=1) is None
+
+
+def test_iteration_times_leave_out_the_run_ends_and_name_the_slowest_iteration():
+    from agile.run.benchmark import iteration_times
+
+    # logs at 1.0, 1.4, 1.8, 3.0 (a slow third interval: e.g. a checkpoint saved), 3.4 s
+    times = iteration_times([1.0, 1.4, 1.8, 3.0, 3.4])
+    assert times["iteration_s"] == pytest.approx(0.6)  # (3.4 - 1.0) / 4
+    assert times["iteration_median_s"] == pytest.approx(0.4)
+    assert times["iteration_slowest_s"] == pytest.approx(1.2) and times["iteration_slowest_of_run"] == 4
+    with pytest.raises(ValueError, match="at least two"):
+        iteration_times([1.0])

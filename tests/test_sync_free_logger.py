@@ -176,6 +176,29 @@ def test_the_log_writes_what_rsl_rls_writes():
     assert "Episode_Reward/term_4:" in text and "Metrics/error:" in text
 
 
+
+def test_each_log_stamps_its_iteration_on_the_hosts_clock():
+    """What `agile benchmark` times an iteration by: one (iteration, clock) per log, in order, the newest kept."""
+    import contextlib
+    import io
+    import time
+
+    from agile.rl_env.rsl_rl import sync_free_logger
+
+    made = logger(SyncFreeLogger, 24)
+    made.writer = RecordingWriter()
+    before = time.perf_counter()
+    for it, rollout in enumerate(rollouts("cpu", 3), start=7):
+        for rewards, dones, extras in rollout:
+            made.process_env_step(rewards, dones, extras)
+        with contextlib.redirect_stdout(io.StringIO()):
+            made.log(it=it, start_it=7, total_it=10, collect_time=0.25, learn_time=0.05, loss_dict={"value": 1.0},
+                     learning_rate=1e-3, action_std=torch.full((12,), 0.3), rnd_weight=None)
+    assert [it for it, _ in made.iteration_stamps_s] == [7, 8, 9]
+    clocks = [stamp for _, stamp in made.iteration_stamps_s]
+    assert before <= clocks[0] <= clocks[1] <= clocks[2] <= time.perf_counter()
+    assert made.iteration_stamps_s.maxlen == sync_free_logger.STAMPS_KEPT
+
 @pytest.mark.gpu
 def test_the_log_reads_the_gpu_back_a_few_times_not_per_key():
     import warnings

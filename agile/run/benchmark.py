@@ -6,9 +6,10 @@
 For each env count, from one process on one device: raw physics (the captured decimation loop alone, no
 managers, from the state the env has after one second of random actions), env.step with random actions and
 its ratio to raw physics, PPO training (rollout + update, with the training's runner, logger and NaN check as
-`agile train` runs them, logging into a temporary folder; per iteration of a long training: two runs of N and 2N
-iterations differenced, so that a run's start and end, its log opened and closed and its last checkpoint saved, are
-left out; the shorter run's mean with them is reported too) and its ratio, startup (gym.make to the first step
+`agile train` runs them, logging into a temporary folder; per iteration of a long training: the host's time from
+one iteration's log to the next over a run of --train_iterations, so that the run's start and end, its log opened and
+closed and its last checkpoint saved, are left out; with the median and slowest iteration, and the run's mean with its
+ends) and its ratio, startup (gym.make to the first step
 done), device memory in use, the share of the env step spent in the explicit actuators (raw physics with and
 without them), the solver iterations of the slowest world under raw physics and under env.step (untimed),
 and where a training iteration's time goes (env steps, policy inference and rollout storage, PPO update: each phase
@@ -22,6 +23,7 @@ from __future__ import annotations
 import argparse
 import copy
 import json
+import statistics
 import tempfile
 import time
 
@@ -203,6 +205,21 @@ def timed_learn(runner, iterations: int) -> float:
     return time.perf_counter() - start
 
 
+def iteration_times(stamps_s: list[float]) -> dict:
+    """Whole iterations of a run from the host's clock at each iteration's log (`SyncFreeLogger.iteration_stamps_s`):
+    the time from one log to the next is an iteration with everything the runner does in it (rollout, update, log,
+    a checkpoint saved on the way). Their mean is the training's iteration, the run's start (before the first log)
+    and end (the last checkpoint saved, the log closed) left out; the median and the slowest are beside it, so that
+    one slow iteration (a checkpoint, a capture) shows as such."""
+    intervals = [b - a for a, b in zip(stamps_s, stamps_s[1:])]
+    if not intervals:
+        raise ValueError(f"iteration times need at least two iterations' stamps, got {len(stamps_s)}")
+    slowest = max(range(len(intervals)), key=intervals.__getitem__)
+    return {"iteration_s": (stamps_s[-1] - stamps_s[0]) / len(intervals),
+            "iteration_median_s": statistics.median(intervals), "iteration_slowest_s": intervals[slowest],
+            "iteration_slowest_of_run": slowest + 2}  # the timed run's iterations counted from 1; the first has no start
+
+
 def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterations: int) -> dict:
     import torch
 
@@ -245,17 +262,11 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     with tempfile.TemporaryDirectory() as log_dir, cli.quiet_stdout():
         runner = training_runner(env, agent_cfg, log_dir)
         runner.learn(1)  # warm-up: allocations, first update
-        short_s = timed_learn(runner, train_iterations)
-        long_s = timed_learn(runner, 2 * train_iterations)
-    # Each `learn` also opens the log, saves a checkpoint at its end and closes the log, once a run (a training of
-    # thousands of iterations spreads that over all of them): the difference of two runs, N and 2N iterations long,
-    # is N iterations without it, the training's iteration; the shorter run's mean is kept too
-    iteration_s = (long_s - short_s) / train_iterations
-    if not iteration_s > 0.0:
-        raise RuntimeError(f"training timed {long_s:.3f} s for {2 * train_iterations} iterations and {short_s:.3f} s "
-                           f"for {train_iterations}: time more (--train_iterations)")
-    iteration_with_run_ends_s = short_s / train_iterations
-    train = n * agent_cfg.num_steps_per_env / iteration_s
+        run_s = timed_learn(runner, train_iterations)
+    stamps_s = [stamp for _, stamp in runner.logger.iteration_stamps_s][-train_iterations:]
+    iterations = iteration_times(stamps_s)
+    iteration_with_run_ends_s = run_s / train_iterations
+    train = n * agent_cfg.num_steps_per_env / iterations["iteration_s"]
     phases = time_training_phases(runner, runner.env, train_iterations)
     timeline = time_training_timeline(runner, runner.env, train_iterations)
     memory = device_memory_used_gb(env.device)
@@ -272,7 +283,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
               "train": train, "train_ratio": train / raw, "startup_s": startup_s, "device_memory_gb": memory,
               "solver_iterations_slowest_world_raw": raw_iterations,
               "solver_iterations_slowest_world_env_step": env_step_iterations,
-              "iteration_s": iteration_s, "iteration_with_run_ends_s": iteration_with_run_ends_s,
+              **iterations, "iteration_with_run_ends_s": iteration_with_run_ends_s,
               "train_with_run_ends": n * agent_cfg.num_steps_per_env / iteration_with_run_ends_s,
               **{f"iteration_{phase}": value for phase, value in phases.items()},
               "iteration_gpu_timeline": timeline,
@@ -290,12 +301,15 @@ def main(argv=None) -> None:
                         help="env counts to measure, one after another")
     parser.add_argument("--device", default=None, help="cuda:0 or cpu (default: cuda:0 when a GPU is present)")
     parser.add_argument("--steps", type=int, default=200, help="env steps timed per measurement")
-    parser.add_argument("--train_iterations", type=int, default=10,
-                        help="PPO iterations timed for the training rate (after one untimed)")
+    parser.add_argument("--train_iterations", type=int, default=20,
+                        help="PPO iterations of the timed run for the training rate (after one untimed; at least 2)")
     parser.add_argument("--out", default=None, help="write the results as JSON here")
     parser.add_argument("overrides", nargs="*", help=cli.OVERRIDE_HELP)
     cli.add_recipe_arg(parser)
     args = cli.parse(parser, argv)
+    if args.train_iterations < 2:
+        cli.fail(f"--train_iterations must be at least 2 (an iteration is timed from one iteration's log to the "
+                 f"next), got {args.train_iterations}")
 
     from agile.run import multi_agent, multi_agent_benchmark
 
@@ -323,13 +337,16 @@ def main(argv=None) -> None:
         print(f"{r['num_envs']:>7} {r['raw_physics']:>12.0f} {r['env_step']:>10.0f} {r['env_step_ratio']:>6.2f} "
               f"{r['train']:>10.0f} {r['train_ratio']:>6.2f} {r['startup_s']:>9.1f} {mem:>7} "
               f"{100 * r['actuator_share_of_env_step']:>8.1f}%")
-    print("\nwhere a PPO iteration goes (s): the runner's iteration (and with a short run's start and end), then its "
-          "phases timed one by one (env steps, policy inference and rollout storage, PPO update)")
-    print(f"{'envs':>7} {'iteration':>10} {'with ends':>10} {'env steps':>10} {'policy':>8} {'update':>8}")
+    print("\nwhere a PPO iteration goes (s): the runner's iteration (log to log: mean, median, slowest and which of the "
+          "run's; the run's mean with its start and end), then its phases timed one by one (env steps, policy "
+          "inference and rollout storage, PPO update)")
+    print(f"{'envs':>7} {'iteration':>10} {'median':>8} {'slowest':>12} {'with ends':>10} {'env steps':>10} "
+          f"{'policy':>8} {'update':>8}")
     for r in rows:
-        print(f"{r['num_envs']:>7} {r['iteration_s']:>10.3f} {r['iteration_with_run_ends_s']:>10.3f} "
-              f"{r['iteration_env_steps_s']:>10.3f} {r['iteration_policy_and_storage_s']:>8.3f} "
-              f"{r['iteration_update_s']:>8.3f}")
+        slowest = f"{r['iteration_slowest_s']:.3f} (#{r['iteration_slowest_of_run']})"
+        print(f"{r['num_envs']:>7} {r['iteration_s']:>10.3f} {r['iteration_median_s']:>8.3f} {slowest:>12} "
+              f"{r['iteration_with_run_ends_s']:>10.3f} {r['iteration_env_steps_s']:>10.3f} "
+              f"{r['iteration_policy_and_storage_s']:>8.3f} {r['iteration_update_s']:>8.3f}")
     timelines = [r for r in rows if r["iteration_gpu_timeline"]]
     if timelines:
         print("\nthe same phases on the GPU's clock, unsynchronised (s per iteration; a phase includes the GPU's wait "

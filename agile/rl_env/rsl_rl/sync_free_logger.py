@@ -9,11 +9,18 @@ iteration, when it logs: the same returns and lengths, in the same order (step b
 100-episode windows (`rewbuffer`, `lenbuffer`) that rsl-rl's report and tensorboard read. The episode extras
 (`extras["log"]`) are averaged over the rollout in one reduction before rsl-rl's `log` reads them.
 
+It also keeps the host's clock at each iteration's log (`iteration_stamps_s`, the last `STAMPS_KEPT`): the wall
+time between two is one whole iteration of the runner (rollout, update, log, any checkpoint save), which
+`agile benchmark` reads to time training iteration by iteration.
+
 The training runners (`CheckpointingRunner`) use it, and the progress loggers (`agile.rl_env.rsl_rl.progress`)
 build on it. With RND's intrinsic rewards it keeps rsl-rl's per-step bookkeeping (none of our tasks uses RND).
 """
 
 from __future__ import annotations
+
+import collections
+import time
 
 import torch
 from rsl_rl.utils.logger import Logger
@@ -29,9 +36,15 @@ def rebuilt_logger(cls, logger: Logger, runner) -> Logger:
     return new
 
 
+STAMPS_KEPT = 1000
+"""Iteration stamps a logger keeps (a benchmark reads tens; a training of 100,000 iterations stays bounded)."""
+
+
 class SyncFreeLogger(Logger):
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
+        self.iteration_stamps_s: collections.deque[tuple[int, float]] = collections.deque(maxlen=STAMPS_KEPT)
+        """(iteration, `time.perf_counter()` when its log began), the newest last."""
         rows = max(1, int(self.cfg.get("num_steps_per_env", 1)))  # a rollout's steps: one flush per iteration
         self.ended = torch.zeros(rows, self.num_envs, dtype=torch.bool, device=self.device)
         """(steps, N): which envs' episodes ended at each step held since the last flush."""
@@ -88,6 +101,7 @@ class SyncFreeLogger(Logger):
         return True
 
     def log(self, **kwargs) -> None:
+        self.iteration_stamps_s.append((kwargs["it"], time.perf_counter()))
         self.flush_ended_episodes()
         if self.writer is None or not self.average_episode_extras():
             super().log(**kwargs)
