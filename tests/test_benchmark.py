@@ -64,3 +64,16 @@ def test_iteration_times_leave_out_the_run_ends_and_name_the_slowest_iteration()
     assert times["iteration_slowest_s"] == pytest.approx(1.2) and times["iteration_slowest_of_run"] == 4
     with pytest.raises(ValueError, match="at least two"):
         iteration_times([1.0])
+
+
+def test_whole_heap_collections_are_counted_and_timed_while_entered():
+    import gc
+
+    from agile.run.benchmark import FullGarbageCollections
+
+    with FullGarbageCollections() as collections:
+        gc.collect(1)  # a younger generation: not counted
+        gc.collect()
+    assert collections.count == 1 and collections.seconds > 0.0
+    gc.collect()  # after the exit: not counted
+    assert collections.count == 1

@@ -264,6 +264,7 @@ def test_benchmark_runs_on_cpu(tmp_path):
     # the training's iteration from log to log (the run's start and end left out), and the run's mean with them
     assert 0 < row["iteration_median_s"] <= row["iteration_slowest_s"] and row["iteration_with_run_ends_s"] > 0
     assert row["iteration_median_s"] <= row["iteration_s"] * 1.5 and row["iteration_slowest_of_run"] in (2, 3)
+    assert row["ppo_update_captures_in_run"] == 0 and row["full_gc_collections_in_run"] >= 0  # no graph on a CPU
     assert row["train"] == pytest.approx(2 * 24 / row["iteration_s"])  # 2 envs x 24 steps an iteration
 
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import gc
 import json
 import statistics
 import tempfile
@@ -205,6 +206,34 @@ def timed_learn(runner, iterations: int) -> float:
     return time.perf_counter() - start
 
 
+class FullGarbageCollections:
+    """Python's collections of the whole heap (generation 2) while entered, counted and timed: a pass over every
+    object of a process holding a simulator (~1.3 million for G1), about half a second on a CPU core, which lands in
+    whichever iteration triggers it."""
+
+    def __init__(self):
+        self.count = 0
+        self.seconds = 0.0
+        self._started_s: float | None = None
+
+    def __enter__(self) -> FullGarbageCollections:
+        gc.callbacks.append(self._observe)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        gc.callbacks.remove(self._observe)
+
+    def _observe(self, phase: str, info: dict) -> None:
+        if info["generation"] != 2:
+            return
+        if phase == "start":
+            self._started_s = time.perf_counter()
+        elif self._started_s is not None:
+            self.count += 1
+            self.seconds += time.perf_counter() - self._started_s
+            self._started_s = None
+
+
 def iteration_times(stamps_s: list[float]) -> dict:
     """Whole iterations of a run from the host's clock at each iteration's log (`SyncFreeLogger.iteration_stamps_s`):
     the time from one log to the next is an iteration with everything the runner does in it (rollout, update, log,
@@ -262,7 +291,12 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     with tempfile.TemporaryDirectory() as log_dir, cli.quiet_stdout():
         runner = training_runner(env, agent_cfg, log_dir)
         runner.learn(1)  # warm-up: allocations, first update
-        run_s = timed_learn(runner, train_iterations)
+        captures_before = getattr(runner.alg, "captures_made", 0)  # a captured PPO update (CapturedPPO) records anew
+        with FullGarbageCollections() as collections:
+            run_s = timed_learn(runner, train_iterations)
+        # what can make one iteration slow: the update's graph recorded again, Python's whole-heap collection
+        slow_causes = {"ppo_update_captures_in_run": getattr(runner.alg, "captures_made", 0) - captures_before,
+                       "full_gc_collections_in_run": collections.count, "full_gc_s_in_run": collections.seconds}
     stamps_s = [stamp for _, stamp in runner.logger.iteration_stamps_s][-train_iterations:]
     iterations = iteration_times(stamps_s)
     iteration_with_run_ends_s = run_s / train_iterations
@@ -283,7 +317,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
               "train": train, "train_ratio": train / raw, "startup_s": startup_s, "device_memory_gb": memory,
               "solver_iterations_slowest_world_raw": raw_iterations,
               "solver_iterations_slowest_world_env_step": env_step_iterations,
-              **iterations, "iteration_with_run_ends_s": iteration_with_run_ends_s,
+              **iterations, **slow_causes, "iteration_with_run_ends_s": iteration_with_run_ends_s,
               "train_with_run_ends": n * agent_cfg.num_steps_per_env / iteration_with_run_ends_s,
               **{f"iteration_{phase}": value for phase, value in phases.items()},
               "iteration_gpu_timeline": timeline,
@@ -347,6 +381,8 @@ def main(argv=None) -> None:
         print(f"{r['num_envs']:>7} {r['iteration_s']:>10.3f} {r['iteration_median_s']:>8.3f} {slowest:>12} "
               f"{r['iteration_with_run_ends_s']:>10.3f} {r['iteration_env_steps_s']:>10.3f} "
               f"{r['iteration_policy_and_storage_s']:>8.3f} {r['iteration_update_s']:>8.3f}")
+        print(f"{'':>7} in the timed run: the PPO update captured {r['ppo_update_captures_in_run']} time(s), "
+              f"{r['full_gc_collections_in_run']} whole-heap garbage collection(s) ({r['full_gc_s_in_run']:.3f} s)")
     timelines = [r for r in rows if r["iteration_gpu_timeline"]]
     if timelines:
         print("\nthe same phases on the GPU's clock, unsynchronised (s per iteration; a phase includes the GPU's wait "
