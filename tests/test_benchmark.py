@@ -1,10 +1,11 @@
-"""benchmark.py's timing helpers on CPU (the figures themselves come from the GPU machine)."""
+"""benchmark.py's and training_timing.py's timing helpers on CPU (the figures themselves come from the GPU machine)."""
 
 import argparse
 
 import pytest
 import torch
-from agile.run.benchmark import restarter, slowest_world_solver_iterations, time_physics, time_training_timeline
+from agile.run.benchmark import restarter, slowest_world_solver_iterations, time_physics
+from agile.run.training_timing import time_training_timeline
 
 
 def test_raw_physics_restarts_from_the_state_it_was_given(t1_env):
@@ -55,7 +56,7 @@ def test_the_gpu_timeline_is_for_cuda_only(t1_env):
 
 
 def test_iteration_times_leave_out_the_run_ends_and_name_the_slowest_iteration():
-    from agile.run.benchmark import iteration_times
+    from agile.run.training_timing import iteration_times
 
     # logs at 1.0, 1.4, 1.8, 3.0 (a slow third interval: e.g. a checkpoint saved), 3.4 s
     times = iteration_times([1.0, 1.4, 1.8, 3.0, 3.4])
@@ -69,7 +70,7 @@ def test_iteration_times_leave_out_the_run_ends_and_name_the_slowest_iteration()
 def test_whole_heap_collections_are_counted_and_timed_while_entered():
     import gc
 
-    from agile.run.benchmark import FullGarbageCollections
+    from agile.run.training_timing import FullGarbageCollections
 
     with FullGarbageCollections() as collections:
         gc.collect(1)  # a younger generation: not counted

@@ -22,25 +22,17 @@ from __future__ import annotations
 
 import argparse
 import copy
-import gc
 import json
-import statistics
 import tempfile
 import time
 
 from agile.run import common as cli
+from agile.run.training_timing import synchronize, time_training
 
 
 RUNNING_STATE_ENV_STEPS = 50
 """Env steps with random actions (1 s at 50 Hz) before raw physics is timed, so that it is timed from the
 states env.step visits, not from the spawn."""
-
-
-def synchronize(device) -> None:
-    import torch
-
-    if str(device).startswith("cuda"):
-        torch.cuda.synchronize()
 
 
 def device_memory_used_gb(device) -> float | None:
@@ -123,132 +115,6 @@ def flat_raw_physics(env_cfg, device: str, steps: int) -> float:
     return rate
 
 
-def training_loop(runner, env, iterations: int, phase) -> None:
-    """rsl-rl's rollout and update (without its NaN checks and logging), each call made through `phase(name, func,
-    *args)`, named "act", "env_step", "storage", "returns" or "update"."""
-    import torch
-
-    alg = runner.alg
-    obs = env.get_observations()
-    for _ in range(iterations):
-        with torch.inference_mode():
-            for _ in range(runner.cfg["num_steps_per_env"]):
-                actions = phase("act", alg.act, obs)
-                obs, rewards, dones, extras = phase("env_step", env.step, actions)
-                phase("storage", alg.process_env_step, obs, rewards, dones, extras)
-            phase("returns", alg.compute_returns, obs)
-        phase("update", alg.update)
-
-
-PHASE_GROUPS = {"act": "policy_and_storage_s", "env_step": "env_steps_s", "storage": "policy_and_storage_s",
-                "returns": "policy_and_storage_s", "update": "update_s"}
-"""Where `time_training_phases` counts each call of `training_loop`."""
-
-
-def time_training_phases(runner, env, iterations: int) -> dict:
-    """Seconds per PPO iteration in each phase of rsl-rl's loop (`training_loop`): env steps, policy inference with
-    rollout storage, and the update. Each phase is closed by a device synchronisation, so the sum is a little above a
-    real iteration."""
-    device = env.device
-    seconds = {"env_steps_s": 0.0, "policy_and_storage_s": 0.0, "update_s": 0.0}
-
-    def timed(name: str, func, *args):
-        synchronize(device)
-        start = time.perf_counter()
-        result = func(*args)
-        synchronize(device)
-        seconds[PHASE_GROUPS[name]] += time.perf_counter() - start
-        return result
-
-    training_loop(runner, env, iterations, timed)
-    return {name: value / iterations for name, value in seconds.items()}
-
-
-def time_training_timeline(runner, env, iterations: int) -> dict | None:
-    """The loop's calls (`training_loop`: act, env step, storage, returns, update) on the GPU's own clock, nothing
-    synchronised: a CUDA event recorded after each call and read once at the end. A phase's time runs from the end of
-    the call before on the GPU, so it includes the GPU's waits for the host to launch it: where `time_training_phases`
-    (synchronised, host time) and this differ, the host was the bottleneck, or hid behind the GPU. `loop_s`: the
-    host's wall time of the loop; None off CUDA."""
-    import torch
-
-    if not str(env.device).startswith("cuda"):
-        return None
-    seconds = {f"{name}_s": 0.0 for name in PHASE_GROUPS}
-    last = torch.cuda.Event(enable_timing=True)
-    marks: list[tuple[str, torch.cuda.Event]] = []
-
-    def marked(name: str, func, *args):
-        result = func(*args)
-        event = torch.cuda.Event(enable_timing=True)
-        event.record()
-        marks.append((name, event))
-        return result
-
-    synchronize(env.device)
-    start = time.perf_counter()
-    last.record()
-    training_loop(runner, env, iterations, marked)
-    synchronize(env.device)
-    loop_s = time.perf_counter() - start
-    for name, event in marks:
-        seconds[f"{name}_s"] += last.elapsed_time(event) / 1e3
-        last = event
-    return {**{name: value / iterations for name, value in seconds.items()}, "loop_s": loop_s / iterations}
-
-
-def timed_learn(runner, iterations: int) -> float:
-    """Seconds of `runner.learn(iterations)`, the device's queued work done before and after."""
-    synchronize(runner.device)
-    start = time.perf_counter()
-    runner.learn(iterations)
-    synchronize(runner.device)
-    return time.perf_counter() - start
-
-
-class FullGarbageCollections:
-    """Python's collections of the whole heap (generation 2) while entered, counted and timed: a pass over every
-    object of a process holding a simulator (~1.3 million for G1), about half a second on a CPU core, which lands in
-    whichever iteration triggers it."""
-
-    def __init__(self):
-        self.count = 0
-        self.seconds = 0.0
-        self._started_s: float | None = None
-
-    def __enter__(self) -> FullGarbageCollections:
-        gc.callbacks.append(self._observe)
-        return self
-
-    def __exit__(self, *exc) -> None:
-        gc.callbacks.remove(self._observe)
-
-    def _observe(self, phase: str, info: dict) -> None:
-        if info["generation"] != 2:
-            return
-        if phase == "start":
-            self._started_s = time.perf_counter()
-        elif self._started_s is not None:
-            self.count += 1
-            self.seconds += time.perf_counter() - self._started_s
-            self._started_s = None
-
-
-def iteration_times(stamps_s: list[float]) -> dict:
-    """Whole iterations of a run from the host's clock at each iteration's log (`SyncFreeLogger.iteration_stamps_s`):
-    the time from one log to the next is an iteration with everything the runner does in it (rollout, update, log,
-    a checkpoint saved on the way). Their mean is the training's iteration, the run's start (before the first log)
-    and end (the last checkpoint saved, the log closed) left out; the median and the slowest are beside it, so that
-    one slow iteration (a checkpoint, a capture) shows as such."""
-    intervals = [b - a for a, b in zip(stamps_s, stamps_s[1:])]
-    if not intervals:
-        raise ValueError(f"iteration times need at least two iterations' stamps, got {len(stamps_s)}")
-    slowest = max(range(len(intervals)), key=intervals.__getitem__)
-    return {"iteration_s": (stamps_s[-1] - stamps_s[0]) / len(intervals),
-            "iteration_median_s": statistics.median(intervals), "iteration_slowest_s": intervals[slowest],
-            "iteration_slowest_of_run": slowest + 2}  # the timed run's iterations counted from 1; the first has no start
-
-
 def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterations: int) -> dict:
     import torch
 
@@ -289,20 +155,9 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
 
     agent_cfg.max_iterations = train_iterations
     with tempfile.TemporaryDirectory() as log_dir, cli.quiet_stdout():
-        runner = training_runner(env, agent_cfg, log_dir)
-        runner.learn(1)  # warm-up: allocations, first update
-        captures_before = getattr(runner.alg, "captures_made", 0)  # a captured PPO update (CapturedPPO) records anew
-        with FullGarbageCollections() as collections:
-            run_s = timed_learn(runner, train_iterations)
-        # what can make one iteration slow: the update's graph recorded again, Python's whole-heap collection
-        slow_causes = {"ppo_update_captures_in_run": getattr(runner.alg, "captures_made", 0) - captures_before,
-                       "full_gc_collections_in_run": collections.count, "full_gc_s_in_run": collections.seconds}
-    stamps_s = [stamp for _, stamp in runner.logger.iteration_stamps_s][-train_iterations:]
-    iterations = iteration_times(stamps_s)
-    iteration_with_run_ends_s = run_s / train_iterations
-    train = n * agent_cfg.num_steps_per_env / iterations["iteration_s"]
-    phases = time_training_phases(runner, runner.env, train_iterations)
-    timeline = time_training_timeline(runner, runner.env, train_iterations)
+        training = time_training(training_runner(env, agent_cfg, log_dir), train_iterations)
+    steps_per_iteration = n * agent_cfg.num_steps_per_env
+    train = steps_per_iteration / training["iteration_s"]
     memory = device_memory_used_gb(env.device)
     # the demand on the solver's fixed buffers over everything above (random actions, falls, training)
     capacity = env.sim.capacity
@@ -317,10 +172,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
               "train": train, "train_ratio": train / raw, "startup_s": startup_s, "device_memory_gb": memory,
               "solver_iterations_slowest_world_raw": raw_iterations,
               "solver_iterations_slowest_world_env_step": env_step_iterations,
-              **iterations, **slow_causes, "iteration_with_run_ends_s": iteration_with_run_ends_s,
-              "train_with_run_ends": n * agent_cfg.num_steps_per_env / iteration_with_run_ends_s,
-              **{f"iteration_{phase}": value for phase, value in phases.items()},
-              "iteration_gpu_timeline": timeline,
+              **training, "train_with_run_ends": steps_per_iteration / training["iteration_with_run_ends_s"],
               **buffers}
     if flat_raw is not None:
         result.update(flat_raw_physics=flat_raw, env_step_ratio_to_flat=full / flat_raw,
