@@ -74,7 +74,8 @@ def test_the_report_shows_a_tasks_own_height_criterion_and_its_bands(tmp_path):
     height column shows it, a band over its bound fails the run, and the by-command plot draws the bands."""
     from agile.run.eval_all import plot_error_by_command, report_markdown, verdict
 
-    bands = [{"command": [0.0, 0.4], "steps": 10, "error": 0.03}, {"command": [0.4, 0.9], "steps": 10, "error": 0.07}]
+    bands = [{"command": [0.0, 0.4], "steps": 10, "error": 0.03, "error_se": 0.004},  # whiskers where it has one
+             {"command": [0.4, 0.9], "steps": 10, "error": 0.07}]
     result = {"task": "HeightTracking-G1-v0", "kind": "trainable", "device": "cuda:0", "num_envs": 256,
               "num_episodes": 1, "episode_length_s": 15.0, "fall_rate": 0.0, "mean_episode_length_s": 15.0,
               "reward_per_step": {"track": 1.0}, "episode_metrics": {"height/height_error_m": 0.045},

@@ -202,12 +202,14 @@ ERROR_BY_COMMAND_AXES = {
 
 def plot_error_by_command(result: dict, out_dir: str, plt) -> str:
     """One PNG of a task's tracking errors against what was commanded (bars: mean error per bin of the commanded
-    speed, and of the commanded height for a height command); its file name."""
+    speed, and of the commanded height for a height command; whiskers: +-2 standard errors over the envs, where the
+    rows have them); its file name."""
     panels = {key: rows for key, rows in result["error_by_command"].items() if rows}
     fig, axes = plt.subplots(1, len(panels), figsize=(5 * len(panels), 3.4), squeeze=False)
     for ax, (key, rows) in zip(axes[0], panels.items()):
         metric, x_label, y_label = ERROR_BY_COMMAND_AXES[key]
-        ax.bar(range(len(rows)), [row["error"] for row in rows])
+        whiskers = [2 * (row.get("error_se") or 0.0) for row in rows]
+        ax.bar(range(len(rows)), [row["error"] for row in rows], yerr=whiskers if any(whiskers) else None, capsize=3)
         ax.set_xticks(range(len(rows)), [bin_label(row["command"]) for row in rows], fontsize=8)
         ax.set_xlabel(x_label)
         ax.set_ylabel(y_label)

@@ -17,33 +17,55 @@ YAW_RATE_BIN_EDGES_RADPS = (0.05, 0.25, 0.5, 0.75, 1.0)
 
 class ErrorByCommand:
     """A tracking error summed per bin of a commanded value over the steps alive, on the device (no host sync
-    per step): the error as a function of what was asked."""
+    per step): the error as a function of what was asked. Kept per env too, so that each bin's mean comes with its
+    standard error over the envs (each env's episodes draw their own commands and start states: the envs are the
+    independent samples, an env's steps are not)."""
 
     def __init__(self, edges: tuple[float, ...], device):
-        import torch
-
         self.edges = edges
-        self.edges_t = torch.tensor(edges, device=device)
-        self.error_sum = torch.zeros(len(edges) + 1, device=device)
-        self.steps = torch.zeros(len(edges) + 1, device=device)
+        self.device = device
+        self.error_sum_per_env = None
+        """(bins, N): the error summed per bin and env (made at the first `add`, when N is known)."""
+        self.steps_per_env = None
 
     def add(self, commanded, error, alive) -> None:
         import torch
 
+        if self.error_sum_per_env is None:
+            shape = (len(self.edges) + 1, len(commanded))
+            self.edges_t = torch.tensor(self.edges, device=self.device)
+            self.env_ids = torch.arange(len(commanded), device=self.device)
+            self.error_sum_per_env = torch.zeros(shape, device=self.device)
+            self.steps_per_env = torch.zeros(shape, device=self.device)
         bins = torch.bucketize(commanded, self.edges_t, right=True)
-        self.error_sum.index_add_(0, bins, error * alive)
-        self.steps.index_add_(0, bins, alive)
+        self.error_sum_per_env.index_put_((bins, self.env_ids), error * alive, accumulate=True)
+        self.steps_per_env.index_put_((bins, self.env_ids), alive, accumulate=True)
 
     def rows(self) -> list[dict]:
-        """[{"command": [low, high], "error": mean, "steps": n}] for the bins that saw a step (high None: open)."""
+        """[{"command": [low, high], "error": mean, "error_se": its standard error, "steps": n, "envs": k}] for the
+        bins that saw a step (high None: open). The standard error is the ratio estimator's over the k envs with steps
+        in the bin, sqrt(k / (k - 1) * sum_i (e_i - mean * n_i)^2) / sum_i n_i (e_i, n_i: env i's error sum and steps
+        there); None with fewer than two envs."""
+        if self.error_sum_per_env is None:
+            return []
         bounds = [0.0, *self.edges, None]
-        return [{"command": [bounds[i], bounds[i + 1]], "error": float(e / n), "steps": int(n)}
-                for i, (e, n) in enumerate(zip(self.error_sum.tolist(), self.steps.tolist())) if n > 0]
+        rows = []
+        for i, (errors, steps) in enumerate(zip(self.error_sum_per_env.cpu().double(), self.steps_per_env.cpu().double())):
+            total = float(steps.sum())
+            if total == 0:
+                continue
+            mean = float(errors.sum()) / total
+            envs = int((steps > 0).sum())
+            spread = float(((errors - mean * steps) ** 2).sum())
+            se = (envs / (envs - 1) * spread) ** 0.5 / total if envs > 1 else None
+            rows.append({"command": [bounds[i], bounds[i + 1]], "error": mean, "error_se": se, "steps": int(total),
+                         "envs": envs})
+        return rows
 
 
 def error_by_command_tables(error_by_command: dict[str, list[dict]]) -> str:
     """`ErrorByCommand.rows()` under their "<error>_by_<command>" keys, as markdown tables: the mean error per bin of
-    the commanded value and the bin's share of the steps."""
+    the commanded value, its standard error over the envs (where the rows have it) and the bin's share of the steps."""
     tables = []
     for key, rows in error_by_command.items():
         if not rows:
@@ -51,11 +73,13 @@ def error_by_command_tables(error_by_command: dict[str, list[dict]]) -> str:
         error_name, _, command_name = key.partition("_by_")
         total = sum(row["steps"] for row in rows)
         bins = [f"{low:g}-{'' if high is None else f'{high:g}'}" for low, high in (row["command"] for row in rows)]
-        tables.append("\n".join([f"| {command_name} | " + " | ".join(bins) + " |",
-                                  "|---" * (len(rows) + 1) + "|",
-                                  f"| {error_name} | " + " | ".join(f"{row['error']:.3f}" for row in rows) + " |",
-                                  "| share of steps | " + " | ".join(f"{row['steps'] / total:.0%}" for row in rows)
-                                  + " |"]))
+        lines = [f"| {command_name} | " + " | ".join(bins) + " |", "|---" * (len(rows) + 1) + "|",
+                 f"| {error_name} | " + " | ".join(f"{row['error']:.3f}" for row in rows) + " |"]
+        if any(row.get("error_se") is not None for row in rows):  # JSON written before it was kept has none
+            lines.append("| standard error | " + " | ".join(
+                "-" if row.get("error_se") is None else f"{row['error_se']:.3f}" for row in rows) + " |")
+        lines.append("| share of steps | " + " | ".join(f"{row['steps'] / total:.0%}" for row in rows) + " |")
+        tables.append("\n".join(lines))
     return "\n\n".join(tables)
 
 

@@ -14,7 +14,8 @@ spawned on ("terrain_cell": "row <r> col <c> <sub-terrain>"); "falls_by_episode_
 and the falls per second of episode time at which they ended; "robots_fallen", "robot_fall_rate" and
 "max_falls_of_one_robot" count falls by env (its robot's randomisation is drawn once per run); a command that
 measures its own error (`CommandTerm.command_error`: the height-tracking command's) gets it by commanded value under
-"error_by_command" ("height_error_m_by_height_m").
+"error_by_command" ("height_error_m_by_height_m"). Each bin of "error_by_command" holds its mean error, that mean's
+standard error over the envs ("error_se": how far a bin's figure may move with another seed), steps and envs.
 JSON files written before these were merged have the command terms' under "command_metrics".
 """
 
