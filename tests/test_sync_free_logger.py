@@ -219,3 +219,17 @@ def test_the_log_reads_the_gpu_back_a_few_times_not_per_key():
     # means' one copy, the action std's
     plain, sync_free = synchronisations(Logger), synchronisations(SyncFreeLogger)
     assert sync_free <= 6 < 24 < plain, (sync_free, plain)
+
+
+def test_the_tensorboard_writer_is_closed_when_a_run_ends(tmp_path):
+    """rsl-rl stops only its own writer kinds; a tensorboard writer left open keeps a thread and unflushed events."""
+    from torch.utils.tensorboard import SummaryWriter
+
+    made = SyncFreeLogger(log_dir=str(tmp_path), cfg={"num_steps_per_env": 4, "algorithm": {}}, env_cfg={},
+                          num_envs=NUM_ENVS, is_distributed=False, gpu_world_size=1, gpu_global_rank=0, device="cpu")
+    made.init_logging_writer()
+    assert isinstance(made.writer, SummaryWriter)
+    made.writer.add_scalar("x", 1.0, 0)
+    made.stop_logging_writer()
+    assert made.writer.all_writers is None  # closed: flushed and its thread ended
+    assert any(path.name.startswith("events.out.tfevents") and path.stat().st_size > 0 for path in tmp_path.iterdir())

@@ -100,6 +100,16 @@ class SyncFreeLogger(Logger):
         self.ep_extras = [dict(zip(keys, per_step.mean(dim=0).cpu().unsqueeze(1)))]
         return True
 
+    def stop_logging_writer(self) -> None:
+        """rsl-rl's, and the tensorboard writer closed too (rsl-rl stops only its own `LogWriter` kinds): the event
+        file flushed and its writer thread ended at the end of every `learn`, not left to the interpreter's exit (a
+        runner that learns again opens a new one)."""
+        super().stop_logging_writer()
+        from torch.utils.tensorboard import SummaryWriter
+
+        if isinstance(self.writer, SummaryWriter):
+            self.writer.close()
+
     def log(self, **kwargs) -> None:
         self.iteration_stamps_s.append((kwargs["it"], time.perf_counter()))
         self.flush_ended_episodes()
