@@ -22,8 +22,10 @@ class ErrorByCommand:
     independent samples, an env's steps are not)."""
 
     def __init__(self, edges: tuple[float, ...], device):
+        import torch
+
         self.edges = edges
-        self.device = device
+        self.edges_t = torch.tensor(edges, device=device)
         self.error_sum_per_env = None
         """(bins, N): the error summed per bin and env (made at the first `add`, when N is known)."""
         self.steps_per_env = None
@@ -32,11 +34,9 @@ class ErrorByCommand:
         import torch
 
         if self.error_sum_per_env is None:
-            shape = (len(self.edges) + 1, len(commanded))
-            self.edges_t = torch.tensor(self.edges, device=self.device)
-            self.env_ids = torch.arange(len(commanded), device=self.device)
-            self.error_sum_per_env = torch.zeros(shape, device=self.device)
-            self.steps_per_env = torch.zeros(shape, device=self.device)
+            self.env_ids = torch.arange(len(commanded), device=self.edges_t.device)
+            self.error_sum_per_env = torch.zeros(len(self.edges) + 1, len(commanded), device=self.edges_t.device)
+            self.steps_per_env = torch.zeros_like(self.error_sum_per_env)
         bins = torch.bucketize(commanded, self.edges_t, right=True)
         self.error_sum_per_env.index_put_((bins, self.env_ids), error * alive, accumulate=True)
         self.steps_per_env.index_put_((bins, self.env_ids), alive, accumulate=True)

@@ -13,20 +13,17 @@ import json
 import time
 
 from agile.run import common as cli
+from agile.run.training_timing import synchronize
 
 
 def seconds_per_simulated_second(step, simulated_s_per_call: float, calls: int, device) -> float:
-    import torch
-
     for _ in range(10):  # eager warm-up calls and the graph captures
         step()
-    if str(device).startswith("cuda"):
-        torch.cuda.synchronize()
+    synchronize(device)
     start = time.perf_counter()
     for _ in range(calls):
         step()
-    if str(device).startswith("cuda"):
-        torch.cuda.synchronize()
+    synchronize(device)
     return (time.perf_counter() - start) / (calls * simulated_s_per_call)
 
 
