@@ -12,6 +12,7 @@ from agile.marl.rsl_rl import GroupVecEnv, MultiAgentRunnerCfg
 from agile.rl_env.rsl_rl import to_rsl_rl_dict
 from agile.rl_env.rsl_rl.checkpoints import CheckpointingRunner
 from agile.utils.config import ConfigError
+from agile.utils.heap import heap_frozen
 
 
 class MultiAgentRunner:
@@ -50,6 +51,7 @@ class MultiAgentRunner:
         self.device = device
         self.current_learning_iteration = 0
 
+    @heap_frozen()  # the world and the runners out of the garbage collector's whole-heap passes (agile.utils.heap)
     def learn(self, num_learning_iterations: int) -> None:
         world = self.world
         if world.slot != 0:  # a rollout starts where every group acts

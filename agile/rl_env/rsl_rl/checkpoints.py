@@ -17,6 +17,7 @@ import torch
 from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 
 from agile.rl_env.rsl_rl.sync_free_logger import SyncFreeLogger, rebuilt_logger
+from agile.utils.heap import heap_frozen
 
 TRUST_FLAG = "--trust_checkpoint"
 
@@ -94,6 +95,11 @@ class CheckpointingRunner(OnPolicyRunner):
         os.replace(tmp_path, path)
         self.logger.save_model(path, self.current_learning_iteration)
 
+    @heap_frozen()
+    def learn(self, *args, **kwargs):
+        """rsl-rl's `learn`, with what exists when it starts out of the garbage collector's whole-heap passes
+        (`agile.utils.heap`: a pass over a simulator's process takes about a second)."""
+        return super().learn(*args, **kwargs)
 
     def _configure_multi_gpu(self) -> None:
         """rsl-rl's multi-GPU set-up (NCCL, one CUDA device per rank), extended to CPU ranks with gloo."""

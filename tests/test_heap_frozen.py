@@ -1,0 +1,76 @@
+"""A training runs with what existed at its start out of the garbage collector's whole-heap passes, and gives it
+back when it ends (agile/utils/heap.py)."""
+
+from __future__ import annotations
+
+import gc
+import weakref
+
+import pytest
+
+from agile.utils.heap import heap_frozen
+
+
+class Cycle:
+    def __init__(self):
+        self.me = self
+
+
+def test_the_heap_is_frozen_inside_and_given_back_after_even_on_an_error():
+    assert gc.get_freeze_count() == 0
+    with heap_frozen():
+        assert gc.get_freeze_count() > 0
+    assert gc.get_freeze_count() == 0
+    with pytest.raises(RuntimeError, match="inside"), heap_frozen():
+        raise RuntimeError("inside")
+    assert gc.get_freeze_count() == 0
+
+
+def test_garbage_from_before_the_start_is_collected_after_the_end_not_during():
+    garbage = Cycle()
+    alive = weakref.ref(garbage)
+    with heap_frozen():
+        del garbage
+        gc.collect()
+        assert alive() is not None  # frozen: no pass visits it
+    gc.collect()
+    assert alive() is None  # given back, and freed
+
+
+def test_a_callers_own_freeze_is_kept():
+    gc.freeze()
+    try:
+        frozen = gc.get_freeze_count()
+        with heap_frozen():
+            pass
+        assert gc.get_freeze_count() >= frozen
+    finally:
+        gc.unfreeze()
+
+
+def test_the_training_runners_learn_runs_frozen_and_gives_the_heap_back(tmp_path):
+    """Every env step of `learn` (the checkpointing runner that `agile train` and `agile benchmark` use) sees the heap
+    frozen; after it, nothing is."""
+    import gymnasium as gym
+
+    import agile.tasks
+    from agile.rl_env.rsl_rl.checkpoints import training_runner
+    from agile.rl_env.rsl_rl.vecenv_wrapper import RslRlVecEnvWrapper
+
+    frozen_at_steps = []
+
+    class Observed(RslRlVecEnvWrapper):
+        def step(self, actions):
+            frozen_at_steps.append(gc.get_freeze_count())
+            return super().step(actions)
+
+    _, agent_cfg = agile.tasks.load_cfgs("Velocity-T1-v0")
+    agent_cfg.num_steps_per_env = 3
+    env = gym.make("Velocity-T1-v0", num_envs=2, device="cpu", seed=0).unwrapped
+    try:
+        runner = training_runner(env, agent_cfg, str(tmp_path), wrap=Observed)
+        runner.learn(num_learning_iterations=1)
+    finally:
+        env.close()
+    assert len(frozen_at_steps) == 3 and min(frozen_at_steps) > 0
+    assert gc.get_freeze_count() == 0
