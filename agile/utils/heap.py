@@ -1,8 +1,8 @@
 """What exists when a training starts, kept out of Python's garbage collector while it runs.
 
 A whole-heap collection (generation 2) visits every object of the process: about 1.3 million with a simulator and a
-runner built, 1.0-1.2 s on a GPU host's core, in whichever iteration triggers it (`agile benchmark` counts them: one
-in three of four 20-iteration runs, each a third of a 0.37 s iteration). The env, the runner and the libraries live
+runner built, 1.0-1.2 s on a GPU host's core, in whichever iteration triggers it (`agile benchmark` counts them: once
+in three of four 20-iteration runs, each three 0.37 s iterations' worth). The env, the runner and the libraries live
 as long as the training, so visiting them finds nothing to free; `gc.freeze` moves them out of the collector's view,
 and a full collection then visits only what the training itself created.
 """
