@@ -107,7 +107,8 @@ def timed_learn(runner, iterations: int) -> float:
 class FullGarbageCollections:
     """Python's collections of the whole heap (generation 2) while entered, counted and timed: a pass over every
     object of a process holding a simulator (~1.3 million for G1), about half a second on a CPU core, which lands in
-    whichever iteration triggers it."""
+    whichever iteration triggers it; `learn` freezes what exists at its start (`agile.utils.heap`), so a pass within
+    it visits only what the training created."""
 
     def __init__(self):
         self.count = 0
