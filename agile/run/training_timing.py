@@ -13,6 +13,8 @@ import gc
 import statistics
 import time
 
+from agile.utils.heap import heap_frozen
+
 
 def synchronize(device) -> None:
     import torch
@@ -21,6 +23,7 @@ def synchronize(device) -> None:
         torch.cuda.synchronize()
 
 
+@heap_frozen()  # as the runner's `learn` runs: the phases timed as training spends them
 def training_loop(runner, env, iterations: int, phase) -> None:
     """rsl-rl's rollout and update (without its NaN checks and logging), each call made through `phase(name, func,
     *args)`, named "act", "env_step", "storage", "returns" or "update"."""
