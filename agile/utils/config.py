@@ -19,6 +19,8 @@ import typing
 from collections.abc import Callable
 from typing import Any
 
+from agile.errors import AgileError
+
 
 def configclass(cls=None, **dataclass_kwargs):
     """Turn a class into a dataclass whose defaults are copied per instance."""
@@ -77,7 +79,7 @@ def _copier(value):
 # Overrides: "env.rewards.track_lin_vel_xy_exp.weight=2.0"
 
 
-class ConfigError(ValueError):
+class ConfigError(AgileError, ValueError):
     """A config field is missing, misspelt or of the wrong type."""
 
 
