@@ -1,7 +1,7 @@
 """Time to policy: train a task from scratch for a wall-clock budget and report when its policy first meets the
 task's criteria (agile/tasks/catalogue.py), with the curve of its evaluations against wall time.
 
-    agile time_to_policy --task Velocity-G1-History-v0 --budget_s 600 --out docs/time_to_policy/g1_h100
+    agile time_to_policy --task Velocity-G1-History-v0 --budget_s 600 --out g1_h100
     agile time_to_policy --task Velocity-T1-v0 --budget_s 300 --gpus 4 --out t1_4gpu    # torchrun, ranks on GPUs 0-3
 
 The training runs as a child process (`agile train`, or torchrun over --gpus GPUs with --distributed) and saves a
