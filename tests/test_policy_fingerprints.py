@@ -37,7 +37,7 @@ def test_a_shipped_policy_replays_as_its_fingerprint_says(policy):
 
 
 def test_every_shipped_policy_has_one_fingerprint_and_every_fingerprint_a_policy():
-    files = sorted(p.name for p in FINGERPRINT_DIR.iterdir())
+    files = sorted(str(f.relative_to(FINGERPRINT_DIR)) for f in FINGERPRINT_DIR.rglob("*.npz"))
     assert files == sorted(f"{p.file.stem}.npz" for p in POLICIES), "one <policy>.npz per shipped policy, no folders"
 
 
