@@ -75,6 +75,7 @@ def train(args, env_cfg, agent_cfg, device: str) -> None:
     from agile.marl.runner import MultiAgentRunner
     from agile.rl.checkpoints import restore_runner
     from agile.rl.progress import show_progress
+    from agile.rl.rsl_rl_adapter import set_git_status_repos
     from agile.utils.config import ConfigError
 
     init_files = group_files(args.init_policy, agent_cfg.groups, "--init_policy")
@@ -103,7 +104,7 @@ def train(args, env_cfg, agent_cfg, device: str) -> None:
     if args.progress == "bar":
         print("[agile] --progress bar: a multi-agent run prints each group's block every iteration instead")
     for group_runner in runner.runners.values():
-        group_runner.logger.git_status_repos = cli.git_repos()
+        set_git_status_repos(group_runner, cli.git_repos())
         # rsl-rl's block every iteration; into a file without its terminal escape codes
         show_progress(group_runner, "log", args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
     runner.learn(agent_cfg.max_iterations)

@@ -28,7 +28,7 @@ from agile.run import multi_agent
 
 def set_learning_rate(algorithm, learning_rate: float) -> None:
     """The PPO algorithm's learning rate, as its adaptive schedule sets it (the attribute and every group). A
-    group's learning rate held as a tensor (SyncFreePPO adapts it on the device) is written in place."""
+    group's learning rate held as a tensor (the sync-free update adapts it on the device) is written in place."""
     import torch
 
     algorithm.learning_rate = learning_rate
@@ -125,13 +125,13 @@ def check_rank_weights(runner, rank) -> None:
     all-reduces every gradient, so a difference means the ranks fell out of step)."""
     import torch
 
-    from agile.rl.algorithms.captured_ppo import CapturedPPO
+    from agile.rl.algorithms.captured_ppo import CapturedUpdate
     from agile.rl.distributed import gather_digests, weights_digest
 
     digest = weights_digest(runner.alg.save())
     print(f"[agile] rank {rank.rank}: weights sha256 {digest}", flush=True)
     digests = gather_digests(digest)
-    if isinstance(runner.alg, CapturedPPO):
+    if isinstance(runner.alg, CapturedUpdate):
         runner.alg.release_graph()  # a live graph with NCCL kernels in it makes the destroy below hang
     torch.distributed.destroy_process_group()
     if len(set(digests)) != 1:
@@ -318,6 +318,7 @@ def main(argv=None) -> None:
     from agile.rl.runner import training_runner
     from agile.rl.progress import show_progress
     from agile.rl.algorithms.distillation import load_teacher
+    from agile.rl.rsl_rl_adapter import set_git_status_repos
     from agile.rl.algorithms.reward_normalization import starts_normalizing
 
     env = cli.make_env(args.task, env_cfg, device, use_cache=not args.no_cache)
@@ -336,8 +337,8 @@ def main(argv=None) -> None:
                        steps_per_iteration=agent_cfg.num_steps_per_env)
     with cli.quiet_stdout():
         runner = training_runner(env, agent_cfg, log_dir, wrap, overrides=args.overrides)
-    print(f"[agile] algorithm: {type(runner.alg).__name__}")  # e.g. RewardNormalizationL2C2SyncFreePPO: extensions too
-    runner.logger.git_status_repos = cli.git_repos()
+    print(f"[agile] algorithm: {type(runner.alg).__name__}")  # e.g. RewardNormalizationL2C2SyncFreeUpdatePPO: extensions too
+    set_git_status_repos(runner, cli.git_repos())
     if log_dir is not None:
         show_progress(runner, args.progress, args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
     if resume_path:
