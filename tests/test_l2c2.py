@@ -10,7 +10,7 @@ from tensordict import TensorDict
 
 from agile.rl.algorithms.l2c2 import L2C2
 from agile.rl.algorithms.reward_normalization import RewardNormalization
-from agile.rl.algorithms.sync_free_ppo import SyncFreeUpdate
+from agile.rl.algorithms.sync_free_update import SyncFreeUpdate
 from agile.utils.config import ConfigError
 from ppo_fakes import ppo_algorithm
 

@@ -11,12 +11,12 @@ from tensordict import TensorDict
 
 import agile.tasks
 from agile.rl import to_rsl_rl_dict
-from agile.rl.algorithms.captured_ppo import CapturedUpdate
+from agile.rl.algorithms.captured_update import CapturedUpdate
 from agile.rl.algorithms.distillation import MirrorLoss
 from agile.rl.algorithms.entropy_annealing import EntropyAnnealing
 from agile.rl.algorithms.l2c2 import L2C2
 from agile.rl.algorithms.reward_normalization import RewardNormalization
-from agile.rl.algorithms.sync_free_ppo import SyncFreeUpdate
+from agile.rl.algorithms.sync_free_update import SyncFreeUpdate
 from agile.rl.extensions import EXTENSIONS, compose_algorithm
 from agile.rl.rsl_rl_adapter import RSL_RL_VERSION, RslRlVersionError, check_rsl_rl_version
 from agile.utils.config import ConfigError, apply_overrides
@@ -112,7 +112,6 @@ def test_a_bad_setting_is_refused_naming_the_field():
     ("agile.rl_env.rsl_rl.sync_free_ppo:SyncFreePPO", (SyncFreeUpdate,)),
     ("agile.rl_env.rsl_rl.captured_ppo:CapturedPPO", (CapturedUpdate, SyncFreeUpdate)),
     ("agile.rl_env.rsl_rl.entropy_annealing:EntropyAnnealingPPO", (EntropyAnnealing,)),
-    ("agile.rl.algorithms.captured_ppo:CapturedPPO", (CapturedUpdate, SyncFreeUpdate)),
 ])
 def test_a_retired_class_name_loads_as_its_extension(old, mixins):
     """What checkpoints' overrides, the old `fast` recipe and the docs wrote, from a registered config."""

@@ -14,7 +14,7 @@ from tensordict import TensorDict
 from agile.rl import PpoAlgorithmCfg, to_rsl_rl_dict
 from agile.rl.algorithms.entropy_annealing import EntropyAnnealing
 from agile.rl.algorithms.reward_normalization import STATE_KEY, ReturnVarianceNormalizer, RewardNormalization
-from agile.rl.algorithms.sync_free_ppo import SyncFreeUpdate
+from agile.rl.algorithms.sync_free_update import SyncFreeUpdate
 from agile.rl.configs import RewardNormalizationCfg
 from agile.rl.extensions import compose_algorithm, extended
 from agile.utils.config import ConfigError

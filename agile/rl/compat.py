@@ -9,25 +9,18 @@ class it extended with the extension's switch on (`with_current_names`)."""
 
 from __future__ import annotations
 
-MOVED_MODULES = {
-    "agile.rl_env.rsl_rl.distribution": "agile.rl.distribution",
-    "agile.rl_env.rsl_rl.distillation": "agile.rl.algorithms.distillation",
-    "agile.rl_env.rsl_rl.sync_free_ppo": "agile.rl.algorithms.sync_free_ppo",
-    "agile.rl_env.rsl_rl.captured_ppo": "agile.rl.algorithms.captured_ppo",
-    "agile.rl_env.rsl_rl.entropy_annealing": "agile.rl.algorithms.entropy_annealing",
-    "agile.rl_env.rsl_rl.reward_normalization": "agile.rl.algorithms.reward_normalization",
-    "agile.rl_env.rsl_rl.l2c2": "agile.rl.algorithms.l2c2",
-}
-"""Module -> the module that holds its classes now."""
+MOVED_MODULES = {"agile.rl_env.rsl_rl.distribution": "agile.rl.distribution"}
+"""Module -> the module that holds its classes now (for `class_name` strings of classes that still exist)."""
 
 RETIRED_CLASSES = {
-    "agile.rl.algorithms.sync_free_ppo:SyncFreePPO": ("PPO", {"sync_free_update": True}),
-    "agile.rl.algorithms.captured_ppo:CapturedPPO": ("PPO", {"captured_update": True}),
-    "agile.rl.algorithms.entropy_annealing:EntropyAnnealingPPO": ("PPO", {"entropy_annealing": {}}),
-    "agile.rl.algorithms.distillation:Distillation": ("Distillation", {}),
+    "agile.rl_env.rsl_rl.sync_free_ppo:SyncFreePPO": ("PPO", {"sync_free_update": True}),
+    "agile.rl_env.rsl_rl.captured_ppo:CapturedPPO": ("PPO", {"captured_update": True}),
+    "agile.rl_env.rsl_rl.entropy_annealing:EntropyAnnealingPPO": ("PPO", {"entropy_annealing": {}}),
+    "agile.rl_env.rsl_rl.distillation:Distillation": ("Distillation", {}),
 }
 """A class that extended rsl-rl's algorithm by subclassing it -> (that algorithm, the extension switches that do what
-it did). A switch the config already turns on is kept as it is (its settings included)."""
+it did; the distillation's mirror loss is switched by its weight, as before). A switch the config already turns on is
+kept as it is (its settings included)."""
 
 
 def current_name(name):
@@ -41,8 +34,8 @@ def current_name(name):
 def with_current_names(algorithm: dict) -> dict:
     """In place (and returned): an algorithm config dict's `class_name` as it is named now, a retired class replaced
     by the algorithm it extended and its extension's switch."""
-    name = current_name(algorithm["class_name"])
-    base, switches = RETIRED_CLASSES.get(name, (name, {}))
+    name = algorithm["class_name"]
+    base, switches = RETIRED_CLASSES.get(name, (current_name(name), {}))
     algorithm["class_name"] = base
     for key, value in switches.items():
         if algorithm.get(key) in (None, False):

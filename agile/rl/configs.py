@@ -138,9 +138,9 @@ class PpoAlgorithmCfg:
     """AGILE's entropy-coefficient annealing (`agile.rl.algorithms.entropy_annealing`). None: a fixed coefficient."""
     sync_free_update: bool = False
     """rsl-rl's PPO update without a host synchronisation: the same math, the learning rate adapted on the device
-    (`agile.rl.algorithms.sync_free_ppo`); feed-forward models, Adam, no RND."""
+    (`agile.rl.algorithms.sync_free_update`); feed-forward models, Adam, no RND."""
     captured_update: bool = False
-    """The sync-free update with its mini-batch step replayed as one CUDA graph (`agile.rl.algorithms.captured_ppo`;
+    """The sync-free update with its mini-batch step replayed as one CUDA graph (`agile.rl.algorithms.captured_update`;
     on a CPU it runs eagerly): implies sync_free_update."""
 
 

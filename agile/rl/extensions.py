@@ -52,15 +52,12 @@ EXTENSIONS = (
               settings="agile.rl.configs:RewardNormalizationCfg"),
     Extension("l2c2", "agile.rl.algorithms.l2c2:L2C2", "PPO", settings="agile.rl.configs:L2C2Cfg",
               needs_one_of=("sync_free_update", "captured_update")),
-    Extension("captured_update", "agile.rl.algorithms.captured_ppo:CapturedUpdate", "PPO", passes_key=False),
-    Extension("sync_free_update", "agile.rl.algorithms.sync_free_ppo:SyncFreeUpdate", "PPO", passes_key=False),
+    Extension("captured_update", "agile.rl.algorithms.captured_update:CapturedUpdate", "PPO", passes_key=False),
+    Extension("sync_free_update", "agile.rl.algorithms.sync_free_update:SyncFreeUpdate", "PPO", passes_key=False),
     Extension("mirror_loss_coeff", "agile.rl.algorithms.distillation:MirrorLoss", "Distillation",
               also_takes=("mirror_func",)),
 )
 """Every extension, outermost first."""
-
-EXTENSION_KEYS = tuple(extension.key for extension in EXTENSIONS)
-
 
 def switched_on(value) -> bool:
     """A flag that is True, settings given (a dict, `{}` for the defaults), a weight above 0."""

@@ -125,7 +125,7 @@ def check_rank_weights(runner, rank) -> None:
     all-reduces every gradient, so a difference means the ranks fell out of step)."""
     import torch
 
-    from agile.rl.algorithms.captured_ppo import CapturedUpdate
+    from agile.rl.algorithms.captured_update import CapturedUpdate
     from agile.rl.distributed import gather_digests, weights_digest
 
     digest = weights_digest(runner.alg.save())

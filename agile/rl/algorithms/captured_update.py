@@ -39,7 +39,7 @@ from itertools import chain
 import torch
 from rsl_rl.storage import RolloutStorage
 
-from agile.rl.algorithms.sync_free_ppo import LOSS_SUMS, SyncFreeUpdate
+from agile.rl.algorithms.sync_free_update import LOSS_SUMS, SyncFreeUpdate
 
 
 class CapturedUpdate(SyncFreeUpdate):
@@ -69,7 +69,7 @@ class CapturedUpdate(SyncFreeUpdate):
         """(module, buffer name, the tensor the graph reads) of every buffer of actor and critic at capture."""
         self.captures_made = 0
         self.sums = torch.zeros(LOSS_SUMS, device=self.device)
-        """The losses summed over an update's mini-batches (written by the graph; `sync_free_ppo.LOSS_SUMS`)."""
+        """The losses summed over an update's mini-batches (written by the graph; `sync_free_update.LOSS_SUMS`)."""
 
     def update(self) -> dict[str, float]:
         if not self.captures:
