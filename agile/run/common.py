@@ -14,7 +14,7 @@ REPO_ROOT = Path(__file__).resolve().parents[2]
 """The source checkout agile runs from (with `pip install -e .`); an installed package's is site-packages."""
 
 TRUST_FLAG = "--trust_checkpoint"
-"""`agile.rl_env.rsl_rl.checkpoints.TRUST_FLAG`, named here so that --help does not import the simulator."""
+"""`agile.rl.checkpoints.TRUST_FLAG`, named here so that --help does not import the simulator."""
 CPU_DEFAULT_NUM_ENVS = 4
 EXIT_USAGE = 2
 """Exit code of a script refusing its arguments (argparse's own)."""
@@ -151,7 +151,7 @@ def add_checkpoint_args(parser: argparse.ArgumentParser) -> None:
 
 def read_checkpoint(path: str, trust: bool) -> dict:
     """A checkpoint's contents, loaded before the env is built so that a bad file is reported at once."""
-    from agile.rl_env.rsl_rl.checkpoints import UnreadableCheckpointError, UntrustedCheckpointError, load_checkpoint
+    from agile.rl.checkpoints import UnreadableCheckpointError, UntrustedCheckpointError, load_checkpoint
 
     if not os.path.isfile(path):
         fail(f"checkpoint not found: {path}")
@@ -238,7 +238,7 @@ def shipped_policy(args) -> str | None:
 def load_task(args) -> tuple:
     """(env cfg, agent cfg, device) for the task, with CLI overrides applied and checked."""
     import agile.tasks
-    from agile.rl_env.rsl_rl import make_recurrent
+    from agile.rl import make_recurrent
     from agile.utils.config import ConfigError, apply_overrides
 
     try:

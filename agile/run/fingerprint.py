@@ -146,7 +146,7 @@ def _rollout(policy: ShippedPolicy, *, num_envs: int, num_steps: int, seed: int,
     import torch
 
     import agile.tasks
-    from agile.rl_env.rsl_rl.checkpoints import load_checkpoint
+    from agile.rl.checkpoints import load_checkpoint
     from agile.run.env import build_env
     from agile.run.policy import inference_cfg, load_policy
     from agile.utils.config import apply_overrides
@@ -206,7 +206,7 @@ def _physics_key(name: str) -> str:
 
 def _fallen_state_term(env):
     """The reset term that draws from a fallen-state dataset, or None."""
-    from agile.rl_env.fallen_states import reset_from_fallen_dataset
+    from agile.tasks.stand_up.fallen_states import reset_from_fallen_dataset
 
     for name in env.event_manager.terms("reset"):
         term = env.event_manager.get_term(name)
@@ -218,7 +218,7 @@ def _fallen_state_term(env):
 def _recorded_dataset(recording: dict[str, np.ndarray], env):
     import torch
 
-    from agile.rl_env.fallen_states.dataset import STATE_FIELDS, FallenStates
+    from agile.tasks.stand_up.fallen_states.dataset import STATE_FIELDS, FallenStates
 
     missing = [f for f in STATE_FIELDS if f"{DATASET_PREFIX}{f}" not in recording]
     if missing:

@@ -73,8 +73,9 @@ def latest_run(log_root: str, experiment: str, groups) -> str:
 
 def train(args, env_cfg, agent_cfg, device: str) -> None:
     from agile.marl.runner import MultiAgentRunner
-    from agile.rl_env.rsl_rl.checkpoints import restore_runner
-    from agile.rl_env.rsl_rl.progress import show_progress
+    from agile.rl.checkpoints import restore_runner
+    from agile.rl.progress import show_progress
+    from agile.rl.rsl_rl_adapter import set_git_status_repos
     from agile.utils.config import ConfigError
 
     init_files = group_files(args.init_policy, agent_cfg.groups, "--init_policy")
@@ -103,7 +104,7 @@ def train(args, env_cfg, agent_cfg, device: str) -> None:
     if args.progress == "bar":
         print("[agile] --progress bar: a multi-agent run prints each group's block every iteration instead")
     for group_runner in runner.runners.values():
-        group_runner.logger.git_status_repos = cli.git_repos()
+        set_git_status_repos(group_runner, cli.git_repos())
         # rsl-rl's block every iteration; into a file without its terminal escape codes
         show_progress(group_runner, "log", args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
     runner.learn(agent_cfg.max_iterations)
@@ -116,7 +117,9 @@ def train(args, env_cfg, agent_cfg, device: str) -> None:
 def export_groups(runner, out_dir: str) -> None:
     """policy.pt and policy.onnx of every group; with the IO descriptor of its (first) agent's robot, except for a
     joint group, whose policy drives several robots."""
-    from agile.rl_env.rsl_rl.exporter import export_policy, io_descriptor, write_io_descriptor
+    from agile.export.io_descriptor import io_descriptor
+    from agile.export.policy_files import export_policy
+    from agile.rl_env.io_descriptor_file import write_io_descriptor
 
     for group, view in runner.views.items():
         group_dir = os.path.join(out_dir, group)
@@ -195,7 +198,7 @@ def evaluate(world, policies: dict, num_slots: int, recorders=(), command_name: 
 def restored_runner(world, agent_cfg, run_dir: str | None, trust: bool):
     """A MultiAgentRunner (no logging) holding every group's newest checkpoint of a training run folder."""
     from agile.marl.runner import MultiAgentRunner
-    from agile.rl_env.rsl_rl.checkpoints import restore_runner
+    from agile.rl.checkpoints import restore_runner
 
     files = run_checkpoints(run_dir, agent_cfg.groups)
     with cli.quiet_stdout():

@@ -28,7 +28,7 @@ from agile.run import multi_agent
 
 def set_learning_rate(algorithm, learning_rate: float) -> None:
     """The PPO algorithm's learning rate, as its adaptive schedule sets it (the attribute and every group). A
-    group's learning rate held as a tensor (SyncFreePPO adapts it on the device) is written in place."""
+    group's learning rate held as a tensor (the sync-free update adapts it on the device) is written in place."""
     import torch
 
     algorithm.learning_rate = learning_rate
@@ -63,7 +63,7 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
     from agile.run.policy import inference_cfg
     from agile.run.recording import VideoRecorder
 
-    from agile.rl_env.rsl_rl import flatten_groups
+    from agile.rl import flatten_groups
 
     record = log_dir is not None  # distributed: the other ranks learn the same chunks and record nothing
     if record:
@@ -101,7 +101,7 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
 
 def distributed_rank(args):
     """This process's rank when torchrun started it (with --distributed), else None; sets args.device to its own."""
-    from agile.rl_env.rsl_rl.distributed import make_current, rank_device, rank_from_env
+    from agile.rl.distributed import make_current, rank_device, rank_from_env
 
     rank = rank_from_env()
     if rank is None:
@@ -125,13 +125,13 @@ def check_rank_weights(runner, rank) -> None:
     all-reduces every gradient, so a difference means the ranks fell out of step)."""
     import torch
 
-    from agile.rl_env.rsl_rl.captured_ppo import CapturedPPO
-    from agile.rl_env.rsl_rl.distributed import gather_digests, weights_digest
+    from agile.rl.algorithms.captured_update import CapturedUpdate
+    from agile.rl.distributed import gather_digests, weights_digest
 
     digest = weights_digest(runner.alg.save())
     print(f"[agile] rank {rank.rank}: weights sha256 {digest}", flush=True)
     digests = gather_digests(digest)
-    if isinstance(runner.alg, CapturedPPO):
+    if isinstance(runner.alg, CapturedUpdate):
         runner.alg.release_graph()  # a live graph with NCCL kernels in it makes the destroy below hang
     torch.distributed.destroy_process_group()
     if len(set(digests)) != 1:
@@ -197,7 +197,7 @@ def shipped_init_policy(task: str, agent_cfg) -> str | None:
 def distillation_teacher(args, agent_cfg, resuming: bool) -> str | None:
     """The teacher file of a distillation run (None for PPO, and when resuming: the checkpoint holds it)."""
     import agile.tasks
-    from agile.rl_env.rsl_rl import is_distillation
+    from agile.rl import is_distillation
 
     if not is_distillation(agent_cfg):
         if args.teacher:
@@ -301,7 +301,7 @@ def main(argv=None) -> None:
     if args.init_action_std is not None and (not args.init_policy or not args.init_action_std > 0):
         cli.fail("--init_action_std needs --init_policy and a positive value "
                  "(a new run's initial std is agent.actor.distribution_cfg.init_std)")
-    from agile.rl_env.rsl_rl import policy_obs_set, policy_state_key
+    from agile.rl import policy_obs_set, policy_state_key
 
     init_contents = None
     if args.init_policy:  # refused before the env is built when it holds no policy
@@ -314,10 +314,12 @@ def main(argv=None) -> None:
             cli.fail(f"--inject_nan_actions SHARE EVERY: SHARE within (0, 1], EVERY a whole number >= 1; got "
                      f"{share:g} {every:g}")
 
-    from agile.rl_env.rsl_rl.checkpoints import restore_runner, training_runner
-    from agile.rl_env.rsl_rl.progress import show_progress
-    from agile.rl_env.rsl_rl.distillation import load_teacher
-    from agile.rl_env.rsl_rl.reward_normalization import starts_normalizing
+    from agile.rl.checkpoints import restore_runner
+    from agile.rl.runner import training_runner
+    from agile.rl.progress import show_progress
+    from agile.rl.algorithms.distillation import load_teacher
+    from agile.rl.rsl_rl_adapter import set_git_status_repos
+    from agile.rl.algorithms.reward_normalization import starts_normalizing
 
     env = cli.make_env(args.task, env_cfg, device, use_cache=not args.no_cache)
     print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
@@ -328,15 +330,15 @@ def main(argv=None) -> None:
         cli.dump_configs(log_dir, env_cfg, agent_cfg)
     wrap = None
     if args.inject_nan_actions is not None:
-        from agile.rl_env.rsl_rl.fault_injection import NanActionVecEnv
+        from agile.rl.fault_injection import NanActionVecEnv
 
         share, every = args.inject_nan_actions
         wrap = partial(NanActionVecEnv, share=share, every_iterations=int(every),
                        steps_per_iteration=agent_cfg.num_steps_per_env)
     with cli.quiet_stdout():
         runner = training_runner(env, agent_cfg, log_dir, wrap, overrides=args.overrides)
-    print(f"[agile] algorithm: {type(runner.alg).__name__}")  # e.g. RewardNormalizationL2C2SyncFreePPO: extensions too
-    runner.logger.git_status_repos = cli.git_repos()
+    print(f"[agile] algorithm: {type(runner.alg).__name__}")  # e.g. RewardNormalizationL2C2SyncFreeUpdatePPO: extensions too
+    set_git_status_repos(runner, cli.git_repos())
     if log_dir is not None:
         show_progress(runner, args.progress, args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
     if resume_path:

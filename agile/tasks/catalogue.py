@@ -55,7 +55,7 @@ class TaskEntry:
 
 
 def _is_distilled(task: str) -> bool:
-    from agile.rl_env.rsl_rl import DistillationRunnerCfg
+    from agile.rl import DistillationRunnerCfg
 
     agent_cfg = load_entry_point(task_spec(task).kwargs["rsl_rl_cfg_entry_point"])()
     return isinstance(agent_cfg, DistillationRunnerCfg)
