@@ -93,10 +93,12 @@ class DeployBundle:
     def control_dt_s(self) -> float:
         return float(self.robot["control_dt_s"])
 
+    command_elements: tuple[str, ...]
+    """The bundle's command input, element by element (lin_vel_x, lin_vel_y, ang_vel_z[, base_height])."""
+
     @property
     def command_size(self) -> int:
-        command = next(iter(self.commands.values()))
-        return 4 if "base_height" in command.get("ranges", {}) else 3
+        return len(self.command_elements)
 
 
 def read_deploy_bundle(path: str, robot: RobotSpec) -> DeployBundle:
@@ -112,6 +114,10 @@ def read_deploy_bundle(path: str, robot: RobotSpec) -> DeployBundle:
         task, robot_cfg = configs["task"], configs["robot"]
         inputs = tuple(bundle["pipeline"]["inputs"][task])
         commands = configs["commands"]
+        model = bundle["models"][task]
+        onnx = file.parent / model["parameters"]["model_path"]
+        command_elements = tuple(next((i["element_names"][-1] for i in model["inputs"] if i["name"] == "command"),
+                                      ()))
     except (yaml.YAMLError, KeyError, TypeError, UnicodeDecodeError):
         raise DeployError(f"--bundle: {path} is not a LEAPP bundle written by agile export --format leapp (no "
                           f"pipeline configs with a task and a robot)") from None
@@ -129,4 +135,7 @@ def read_deploy_bundle(path: str, robot: RobotSpec) -> DeployBundle:
     dt = robot_cfg.get("control_dt_s")
     if not isinstance(dt, (int, float)) or not math.isfinite(dt) or dt <= 0:
         raise DeployError(f"--bundle: {path}: its robot config has no positive control_dt_s (found {dt!r})")
-    return DeployBundle(str(file), task, robot_cfg, commands, inputs)
+    if not onnx.is_file():
+        raise DeployError(f"--bundle: {path}: its graph {onnx.name} is not next to it (a bundle is the folder agile "
+                          f"export --format leapp writes: the YAML, the ONNX file, the initial values)")
+    return DeployBundle(str(file), task, robot_cfg, commands, inputs, command_elements)

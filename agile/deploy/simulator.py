@@ -79,10 +79,10 @@ class G1Simulation:
             tau = np.where(c.enabled[ids], r.clip_torque(tau, qd), 0.0)
         self.tau = tau
         data.qfrc_applied[r.dof_adr] = tau
-        if self.on_gantry:
-            data.qpos[:7], data.qvel[:6] = self.base_pose, 0.0
         self.mujoco.mj_step(self.model, data)
         self.time_s += self.dt_s
+        if self.on_gantry:  # the pelvis put back after each step: the joints move, the base does not
+            data.qpos[:7], data.qvel[:6] = self.base_pose, 0.0
         if self.fell_at_s is None and (self.tilt_rad() > FALL_TILT_RAD
                                        or data.qpos[2] < FALL_HEIGHT_FRACTION * self.default_root_height_m):
             self.fell_at_s = self.time_s

@@ -63,7 +63,7 @@ def parse_args(argv):
     parser.add_argument("--dry_run", action="store_true", help="compute everything, write no command")
     parser.add_argument("--log", default=None, metavar="PATH.json",
                         help="write the transitions, the loop's latency and jitter, and counters as JSON")
-    args = cli.parse(parser, argv)
+    args = parser.parse_args(argv)  # not cli.parse: it initialises Warp, unused here, before the input is checked
     for name in ("damping_s", "move_duration_s", "first_state_timeout_s", "max_tilt_deg"):
         if getattr(args, name) <= 0:
             cli.fail(f"--{name} must be positive, got {getattr(args, name)}")
@@ -88,8 +88,8 @@ def prepare(args):
         cli.fail(str(err))
     command = np.zeros(bundle.command_size) if args.command is None else np.array(args.command)
     if command.shape != (bundle.command_size,):
-        cli.fail(f"--command: {bundle.task} takes {bundle.command_size} values (vx vy wz"
-                 f"{' height' if bundle.command_size == 4 else ''}), got {len(args.command)}")
+        cli.fail(f"--command: {bundle.task} takes {bundle.command_size} values ({' '.join(bundle.command_elements)}), "
+                 f"got {len(args.command)}")
     if args.remote and spec.name != "g1":
         cli.fail("--remote reads the G1's wireless remote in LowState_; the t1 has none in its SDK's LowState")
     sdk = {"g1": "unitree_sdk2py", "t1": "booster_robotics_sdk_python"}[spec.name]

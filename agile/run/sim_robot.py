@@ -41,7 +41,7 @@ def main(argv=None) -> None:
     parser.add_argument("--duration_s", type=float, default=None, help="simulated seconds, then exit")
     parser.add_argument("--seed", type=int, default=0, help="seed of the dropped messages")
     parser.add_argument("--out", default=None, metavar="PATH.json", help="write counters and samples here at exit")
-    args = cli.parse(parser, argv)
+    args = parser.parse_args(argv)  # not cli.parse: it initialises Warp, unused here, before the input is checked
     if args.robot != "g1":
         cli.fail(f"--robot: sim_robot simulates g1 only (the Booster SDK's Python binding publishes no T1 LowState);"
                  f" got '{args.robot}'")
