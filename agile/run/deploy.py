@@ -20,6 +20,7 @@ import json
 import signal
 import sys
 import threading
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -203,13 +204,16 @@ def fmt(stats: dict | None) -> str:
 
 
 def write_log(args, bundle, result, timing, link, machine, command) -> None:
+    """Times are time.monotonic() seconds (one clock for every process of the machine: the simulator's samples
+    use it too)."""
     out = {"task": bundle.task, "bundle": args.bundle, "robot": args.robot, "interface": args.interface,
            "domain_id": args.domain_id, "command": command.tolist(), "dry_run": args.dry_run,
            "control_dt_s": bundle.control_dt_s, "fault": machine.fault,
            "transitions": [{"time_s": t.time_s, "from": t.source.value, "to": t.target.value, "cause": t.cause,
                             "state_age_s": t.state_age_s} for t in result.transitions],
            "policy_started_s": result.policy_started_s, "policy_ended_s": result.policy_ended_s,
-           "commands_written": result.commands_written, "states_received": link.received,
+           "commands_written": result.commands_written,
+           "steps_by_mode": dict(Counter(r.mode for r in result.records)), "states_received": link.received,
            "states_bad_crc": link.bad_crc, "timing": timing,
            "last_state_received_s": None if link.latest() is None else link.latest().received_s}
     Path(args.log).parent.mkdir(parents=True, exist_ok=True)
