@@ -300,3 +300,17 @@ def test_the_simulated_motor_drivers_apply_pd_within_the_limits():
     sim.apply(MotorCommand(q=z + 3.0, dq=z, kp=z + 1000.0, kd=z, tau=z, enabled=np.zeros(N, bool), received_s=0.0))
     sim.step()
     assert not sim.tau.any()  # motors not enabled give no torque
+
+
+def test_t1_link_writes_a_command_through_the_sdk_on_loopback():
+    pytest.importorskip("booster_robotics_sdk_python")
+    import random
+
+    from agile.deploy import booster_t1
+
+    booster_t1.start_dds("lo", random.randint(100, 230))
+    link = booster_t1.T1Link()
+    z = np.zeros(23)
+    link.write(z, z, z, z + 1.0, z)
+    assert link.written == 1 and link.latest() is None  # no robot on loopback: no state
+    link.close()
