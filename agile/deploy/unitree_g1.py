@@ -147,7 +147,8 @@ class G1Link:
         self.written += 1
 
     def close(self) -> None:
-        self.subscriber.Close()
+        """Close the command writer. The state reader stays until the process ends: deleting a cyclonedds reader
+        while its listener thread waits for the GIL can deadlock."""
         self.publisher.Close()
 
 
@@ -207,7 +208,3 @@ class G1RobotSide:
         msg.wireless_remote = remote
         msg.crc = self.crc.Crc(msg)
         self.publisher.Write(msg)
-
-    def close(self) -> None:
-        self.subscriber.Close()
-        self.publisher.Close()

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import gc
 import json
+import os
 import signal
 import sys
 import threading
@@ -167,7 +168,7 @@ def main(argv=None) -> None:
         print(f"error: no robot state on interface {args.interface}, DDS domain {args.domain_id} within "
               f"{args.first_state_timeout_s} s (is the robot, or agile sim_robot, running on that domain?); nothing "
               f"was written", file=sys.stderr)
-        sys.exit(EXIT_FAULT)
+        exit_without_dds_teardown(EXIT_FAULT)
     if spec.name == "t1" and not args.dry_run:
         link.enter_custom_mode()
     print(f"[deploy] {bundle.task} on the {spec.name} at {1 / bundle.control_dt_s:.0f} Hz"
@@ -181,7 +182,17 @@ def main(argv=None) -> None:
     link.close()
     if machine.fault is not None:
         print(f"error: damping after a fault: {machine.fault}", file=sys.stderr)
-        sys.exit(EXIT_FAULT)
+    exit_without_dds_teardown(EXIT_FAULT if machine.fault is not None else 0)
+
+
+def exit_without_dds_teardown(code: int) -> None:
+    """Exit with `code` at once, output flushed, without the interpreter's teardown of the DDS objects: deleting a
+    cyclonedds reader while its listener thread waits for the GIL can deadlock (seen once here: a finished deploy
+    hung with every thread in a futex wait). The operating system closes the sockets; the peers see the participant
+    go."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
 
 
 def wait_for_state(link, timeout_s: float, max_age_s: float, signals) -> bool:

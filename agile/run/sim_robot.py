@@ -22,6 +22,7 @@ import threading
 from pathlib import Path
 
 from agile.run import common as cli
+from agile.run.deploy import exit_without_dds_teardown
 
 
 def main(argv=None) -> None:
@@ -88,7 +89,7 @@ def main(argv=None) -> None:
     if args.out:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
         Path(args.out).write_text(json.dumps(summary))
-    simulator.link.close()
+    exit_without_dds_teardown(0)
 
 
 if __name__ == "__main__":
