@@ -314,3 +314,43 @@ def test_t1_link_writes_a_command_through_the_sdk_on_loopback():
     link.write(z, z, z, z + 1.0, z)
     assert link.written == 1 and link.latest() is None  # no robot on loopback: no state
     link.close()
+
+
+class FakeLink:
+    def __init__(self, state):
+        self.state = state
+        self.written = []
+
+    def latest(self):
+        return self.state
+
+    def write(self, q, dq, kp, kd, tau):
+        self.written.append((q.copy(), kp.copy(), kd.copy()))
+
+
+def test_a_start_from_the_keyboard_moves_from_where_the_joints_are():
+    from agile.deploy.controller import LoopResult
+
+    c, m = controller(np.zeros(N), Mode.PASSIVE)
+    c.link = FakeLink(state(0.0, q=np.full(N, -0.3)))
+    result = LoopResult(m.transitions)
+    c.step(0.0, 0.0, result, None)
+    assert m.mode is Mode.PASSIVE and not c.link.written[-1][1].any()  # passive: zero torque
+    c.signals.start = True
+    c.step(0.02, 0.0, result, None)
+    assert m.mode is Mode.MOVE_TO_DEFAULT and m.transitions[-1].cause == "the keyboard"
+    np.testing.assert_allclose(c.link.written[-1][0], -0.3)  # the move starts at the joints, not at the default
+    m.advance(2.02, c.link.state)
+    c.signals.start = True
+    c.link.state = state(2.03, tick=1)
+    c.step(2.03, 0.0, result, policy_duration_s=5.0)
+    assert m.mode is Mode.POLICY and result.policy_started_s == 2.03
+    c.link.state = state(7.04, tick=2)
+    c.step(7.04, 0.0, result, policy_duration_s=5.0)
+    assert m.mode is Mode.DAMPING and result.policy_ended_s == 7.04
+
+
+def test_the_default_command_of_a_height_policy_stands_at_its_default_height(g1_bundle):
+    from agile.run.deploy import default_command
+
+    np.testing.assert_allclose(default_command(read_deploy_bundle(str(g1_bundle), ROBOTS["g1"])), [0, 0, 0, 0.72])

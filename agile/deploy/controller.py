@@ -86,6 +86,7 @@ class Controller:
         self.zeros = np.zeros(n)
         self.previous_q = policy.default_q.copy()
         self.move_from_q = policy.default_q.copy()
+        self.seen_state = False
 
     def command_for(self, mode: Mode, now_s: float, state: RobotState | None):
         """(q, dq, kp, kd, tau) of the mode, in motor order."""
@@ -124,38 +125,42 @@ class Controller:
         if self.signals.take_start():
             m.start("the keyboard", now_s, state)
 
+    def step(self, now_s: float, started_s: float, result: LoopResult, policy_duration_s: float | None) -> None:
+        """One control period: the checks, the signals, the timed transitions, the mode's command written."""
+        m = self.machine
+        state = self.link.latest()
+        self.seen_state = self.seen_state or state is not None
+        before = m.mode  # before the checks and signals too: a start from the keyboard or the remote changes it
+        m.check_state(now_s, state, started_s)
+        self._signals(now_s, state)
+        m.advance(now_s, state)
+        if m.mode is Mode.MOVE_TO_DEFAULT and before is not Mode.MOVE_TO_DEFAULT:
+            self.move_from_q = state.q.copy()
+        if m.mode is Mode.POLICY and before is not Mode.POLICY:
+            self.policy.reset()
+            self.previous_q = self.policy.default_q.copy()
+            result.policy_started_s = now_s
+        if (m.mode is Mode.POLICY and policy_duration_s is not None
+                and now_s - result.policy_started_s >= policy_duration_s):
+            m.stop(f"--duration_s {policy_duration_s} of policy reached", now_s, state)
+        if m.mode is Mode.DAMPING and result.policy_started_s is not None and result.policy_ended_s is None:
+            result.policy_ended_s = now_s
+        q, dq, kp, kd, tau = self.command_for(m.mode, now_s, state)
+        if m.mode is Mode.POLICY:
+            self.previous_q = q
+        if self.seen_state and not self.dry_run:
+            self.link.write(q, dq, kp, kd, tau)
+            result.commands_written += 1
+        result.records.append(StepRecord(now_s, time.monotonic(), None if state is None else state.received_s,
+                                         m.mode.value))
+
     def run(self, *, policy_duration_s: float | None, damping_s: float) -> LoopResult:
         m = self.machine
         result = LoopResult(m.transitions)
         started_s = next_s = time.monotonic()
-        seen_state = False
         while True:
             now_s = time.monotonic()
-            state = self.link.latest()
-            seen_state = seen_state or state is not None
-            m.check_state(now_s, state, started_s)
-            self._signals(now_s, state)
-            before = m.mode
-            m.advance(now_s, state)
-            if m.mode is Mode.MOVE_TO_DEFAULT and before is not Mode.MOVE_TO_DEFAULT:
-                self.move_from_q = state.q.copy()
-            if m.mode is Mode.POLICY and before is not Mode.POLICY:
-                self.policy.reset()
-                self.previous_q = self.policy.default_q.copy()
-                result.policy_started_s = now_s
-            if (m.mode is Mode.POLICY and policy_duration_s is not None
-                    and now_s - result.policy_started_s >= policy_duration_s):
-                m.stop(f"--duration_s {policy_duration_s} of policy reached", now_s, state)
-            if m.mode is Mode.DAMPING and result.policy_started_s is not None and result.policy_ended_s is None:
-                result.policy_ended_s = now_s
-            q, dq, kp, kd, tau = self.command_for(m.mode, now_s, state)
-            if m.mode is Mode.POLICY:
-                self.previous_q = q
-            if seen_state and not self.dry_run:
-                self.link.write(q, dq, kp, kd, tau)
-                result.commands_written += 1
-            result.records.append(StepRecord(now_s, time.monotonic(), None if state is None else state.received_s,
-                                             m.mode.value))
+            self.step(now_s, started_s, result, policy_duration_s)
             if m.mode is Mode.DAMPING and now_s - m.entered_s >= damping_s:
                 return result
             next_s += self.dt_s

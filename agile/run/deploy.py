@@ -49,7 +49,8 @@ def parse_args(argv):
                         "agile sim_robot)")
     parser.add_argument("--domain_id", type=int, default=0, help="the DDS domain (the robots' own: 0)")
     parser.add_argument("--command", type=float, nargs="+", default=None, metavar="V",
-                        help="a fixed command VX VY WZ [HEIGHT] (default: zeros; with --remote, the sticks)")
+                        help="a fixed command VX VY WZ [HEIGHT] (default: standing, at the default height; with --remote, "
+                        "the sticks set VX VY WZ)")
     parser.add_argument("--remote", action="store_true", help="the G1's wireless remote (in LowState_): start, A "
                         "and select buttons, the sticks as the velocity command")
     parser.add_argument("--autostart", action="store_true", help="no start signal: move, hold, then the policy")
@@ -88,7 +89,7 @@ def prepare(args):
         check_interface(args.interface)
     except DeployError as err:
         cli.fail(str(err))
-    command = np.zeros(bundle.command_size) if args.command is None else np.array(args.command)
+    command = default_command(bundle) if args.command is None else np.array(args.command)
     if command.shape != (bundle.command_size,):
         cli.fail(f"--command: {bundle.task} takes {bundle.command_size} values ({' '.join(bundle.command_elements)}), "
                  f"got {len(args.command)}")
@@ -100,6 +101,16 @@ def prepare(args):
     except ImportError:
         cli.fail(f"--robot {spec.name} needs the {sdk} package: pip install 'agile[deploy]'")
     return spec, bundle, command
+
+
+def default_command(bundle) -> np.ndarray:
+    """Standing still; a height command at the command's default height (else the top of its range), not 0 m."""
+    command = np.zeros(bundle.command_size)
+    if "base_height" in bundle.command_elements:
+        term = next(iter(bundle.commands.values()))
+        top = max(term.get("ranges", {}).get("base_height_m", [0.0]))
+        command[bundle.command_elements.index("base_height")] = term.get("params", {}).get("default_height_m", top)
+    return command
 
 
 def command_source(args, bundle, command):
