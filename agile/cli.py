@@ -5,7 +5,7 @@
     agile diff Velocity-T1-v0 Velocity-G1-History-v0   # the config paths whose values differ
     agile train --task Velocity-T1-v0 ...        # train|play|eval|eval_all|export|benchmark|sim2mujoco|
                                                  # plot_learning_curve|time_to_policy|pick_checkpoint|
-                                                 # record|fingerprint:
+                                                 # record|fingerprint|deploy|sim_robot:
                                                  # agile/run/<name>.py, in this process
 
 `agile <command> --help` shows that command's options.
@@ -20,7 +20,7 @@ import sys
 import yaml
 
 FORWARDED = ("train", "play", "eval", "eval_all", "export", "benchmark", "sim2mujoco", "plot_learning_curve",
-             "time_to_policy", "pick_checkpoint", "record", "fingerprint")
+             "time_to_policy", "pick_checkpoint", "record", "fingerprint", "deploy", "sim_robot")
 """Subcommands that run `agile.run.<name>.main` with the arguments that follow."""
 EXIT_USAGE = 2
 

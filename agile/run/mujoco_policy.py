@@ -177,14 +177,14 @@ def bundle_descriptor(bundle: dict) -> dict:
     return {"task": configs["task"], **configs["robot"], "commands": configs["commands"]}
 
 
-class BundlePolicy:
-    """A LEAPP bundle run by LEAPP's own runtime (`leapp.InferenceManager`): raw MuJoCo state in, joint position
-    targets out; the runtime feeds the last action, histories and hidden state back, from the bundle's initial
-    values after reset()."""
+class BundleRuntime:
+    """A LEAPP bundle run by LEAPP's own runtime (`leapp.InferenceManager`), from raw state by input name: what
+    `BundlePolicy` (MuJoCo) and `agile.deploy` (a robot's SDK) share. `inputs` are the raw inputs the bundle reads
+    (`joint_pos`, `joint_vel`, `root_quat_w` (x, y, z, w), `root_lin_vel_b`, `root_ang_vel_b`, `command`), `target_joints`
+    the joints of its position targets; the runtime feeds the last action, histories and hidden state back, from the
+    bundle's initial values after reset()."""
 
-    QUAT_XYZW = [4, 5, 6, 3]  # of MuJoCo's free-joint qpos (w, x, y, z)
-
-    def __init__(self, path: str, robot: Robot):
+    def __init__(self, path: str):
         import torch
 
         try:
@@ -193,33 +193,60 @@ class BundlePolicy:
             cli.fail("--bundle needs the leapp package: pip install 'agile[leapp]'")
 
         self.torch = torch
-        self.robot = robot
         bundle = yaml_load(path)
         self.node = bundle["pipeline"]["configs"]["task"]
         model = bundle["models"][self.node]
         self.inputs = {i["name"]: i for i in model["inputs"] if i["name"] in bundle["pipeline"]["inputs"][self.node]}
         target = next(o for o in model["outputs"] if o.get("kind") == "target/joint/position")
         self.target_name = f"{self.node}/{target['name']}"
-        self.target_ids = [robot.index[n] for n in target["element_names"][-1]]
-        for name in ("joint_pos", "joint_vel"):
-            if name in self.inputs and self.inputs[name]["element_names"][-1] != robot.d["joint_names"]:
-                raise ValueError(f"bundle input {name}: its joints are not the robot's, in the robot's order")
+        self.target_joints = list(target["element_names"][-1])
+        gains = {o.get("kind"): f"{self.node}/{o['name']}" for o in model["outputs"] if o.get("kind") in ("kp", "kd")}
+        self.kp_name, self.kd_name = gains.get("kp"), gains.get("kd")
         with quiet_python_output():  # LEAPP's runtime warns on every machine without CUDA
             self.manager = InferenceManager(path)
 
+    def check_joints(self, joint_names: list[str]) -> None:
+        """Raise ValueError unless the bundle's joint inputs are `joint_names`, in that order."""
+        for name in ("joint_pos", "joint_vel"):
+            if name in self.inputs and self.inputs[name]["element_names"][-1] != joint_names:
+                raise ValueError(f"bundle input {name}: its joints are not the robot's, in the robot's order")
+
     def reset(self) -> None:
         self.manager.reset()
+
+    def run(self, raw: dict) -> dict:
+        """`raw`: name -> a float sequence for every name in `inputs`. Returns the outputs by name (`target_name`,
+        `kp_name`, `kd_name`) as float64 arrays of the action joints."""
+        # torch tensors: LEAPP's reset() zeroes its input buffers in place, which numpy arrays would have replaced
+        feeds = {f"{self.node}/{name}": self.torch.from_numpy(np.asarray(raw[name], dtype=np.float32)[None])
+                 for name in self.inputs}
+        outputs = self.manager.run_policy(feeds)
+        return {name: np.asarray(value, dtype=np.float64)[0] for name, value in outputs.items()
+                if name in (self.target_name, self.kp_name, self.kd_name)}
+
+
+class BundlePolicy:
+    """A LEAPP bundle (`BundleRuntime`) on the MuJoCo state: raw MuJoCo state in, the robot's joint position
+    targets out."""
+
+    QUAT_XYZW = [4, 5, 6, 3]  # of MuJoCo's free-joint qpos (w, x, y, z)
+
+    def __init__(self, path: str, robot: Robot):
+        self.robot = robot
+        self.runtime = BundleRuntime(path)
+        self.runtime.check_joints(robot.d["joint_names"])
+        self.target_ids = [robot.index[n] for n in self.runtime.target_joints]
+
+    def reset(self) -> None:
+        self.runtime.reset()
 
     def raw_state(self, data, command: np.ndarray) -> dict:
         r = self.robot
         read = {"joint_pos": lambda: data.qpos[r.qpos_adr], "joint_vel": lambda: data.qvel[r.dof_adr],
                 "root_quat_w": lambda: data.qpos[self.QUAT_XYZW], "root_lin_vel_b": lambda: r.root_lin_vel_b(data),
                 "root_ang_vel_b": lambda: data.qvel[3:6], "command": lambda: command}
-        # only what the bundle reads; torch tensors: LEAPP's reset() zeroes its input buffers in place, which numpy
-        # arrays would have replaced
-        return {f"{self.node}/{name}": self.torch.from_numpy(np.asarray(read[name](), dtype=np.float32)[None])
-                for name in self.inputs}
+        return {name: read[name]() for name in self.runtime.inputs}  # only what the bundle reads
 
     def __call__(self, data, command: np.ndarray) -> None:
-        outputs = self.manager.run_policy(self.raw_state(data, command))
-        self.robot.target[self.target_ids] = np.asarray(outputs[self.target_name], dtype=np.float64)[0]
+        outputs = self.runtime.run(self.raw_state(data, command))
+        self.robot.target[self.target_ids] = outputs[self.runtime.target_name]

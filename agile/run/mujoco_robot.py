@@ -70,7 +70,10 @@ class Robot:
 
     def torque(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """PD on the targets, clipped by the DC-motor torque-speed line and the effort limit."""
-        tau = self.kp * (self.target - q) - self.kd * qd
+        return self.clip_torque(self.kp * (self.target - q) - self.kd * qd, qd)
+
+    def clip_torque(self, tau: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        """`tau` within what the motors give at joint speeds `qd`: the DC-motor torque-speed line, the effort limit."""
         finite = np.isfinite(self.saturation)
         corner = np.where(finite, self.velocity_limit * (1 + self.effort_limit / np.where(finite, self.saturation, 1)),
                           np.inf)
