@@ -2,7 +2,7 @@
 from the parallel workers, whose load breaks the timing). Each test has its own random DDS domain, so that two runs
 on one machine cannot cross-talk, and every process a timeout, so that a hang fails instead of blocking.
 
-The shipped Velocity-G1-History-v0 policy is exported as a LEAPP bundle once per session (`agile export`, ~1 min)."""
+The shipped Velocity-G1-History-v0 policy is exported as a LEAPP bundle once per test run (`agile export`, ~1 min)."""
 
 from __future__ import annotations
 
