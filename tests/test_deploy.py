@@ -21,8 +21,8 @@ from agile.deploy.robots import ROBOTS, DeployError, read_deploy_bundle
 from agile.deploy.safety import Mode, SafetyLimits, SafetyStateMachine
 
 REPO = Path(__file__).resolve().parents[1]
-T1_BUNDLE = REPO / "docs/leapp/Velocity-T1-v0.yaml"
-G1_BUNDLE_YAML = REPO / "docs/leapp/Velocity-Height-G1-Student-Recurrent-v0.yaml"
+T1_BUNDLE = REPO / "docs/results/leapp/Velocity-T1-v0.yaml"
+G1_BUNDLE_YAML = REPO / "docs/results/leapp/Velocity-Height-G1-Student-Recurrent-v0.yaml"
 N = 29
 LOWER, UPPER = np.full(N, -1.0), np.full(N, 1.0)
 
@@ -208,7 +208,7 @@ def test_the_remote_round_trips_and_maps_the_sticks():
 
 @pytest.fixture
 def g1_bundle(tmp_path) -> Path:
-    """A G1 bundle's YAML (docs/leapp) with a stand-in graph file: enough for every check before the runtime loads
+    """A G1 bundle's YAML (docs/results/leapp) with a stand-in graph file: enough for every check before the runtime loads
     the graph."""
     path = tmp_path / G1_BUNDLE_YAML.name
     path.write_text(G1_BUNDLE_YAML.read_text())

@@ -26,7 +26,7 @@ pytest.importorskip("leapp")
 pytestmark = pytest.mark.realtime
 REPO = Path(__file__).resolve().parents[1]
 TASK = "Velocity-G1-History-v0"
-T1_BUNDLE = REPO / "docs/leapp/Velocity-T1-v0.yaml"
+T1_BUNDLE = REPO / "docs/results/leapp/Velocity-T1-v0.yaml"
 IN_PROCESS_DOMAIN = random.randint(100, 230)
 """Unitree's channel factory keeps one DDS participant per process: the in-process test's domain."""
 
