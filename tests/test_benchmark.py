@@ -38,10 +38,10 @@ def test_the_gpu_timeline_splits_an_iteration_into_its_phases(tmp_path):
     resolution)."""
     from agile.rl_env import ManagerBasedRLEnv
     from agile.rl_env.rsl_rl.checkpoints import training_runner
-    from agile.run import common as cli
+    from agile.run import arguments, task_setup
 
     args = argparse.Namespace(task="Velocity-T1-v0", num_envs=64, device="cuda:0", seed=None, overrides=[])
-    env_cfg, agent_cfg, device = cli.load_task(args)
+    env_cfg, agent_cfg, device = task_setup.load_task(**arguments.task_options(args))
     env = ManagerBasedRLEnv(env_cfg, task_name="Velocity-T1-v0", device=device)
     runner = training_runner(env, agent_cfg, str(tmp_path))
     runner.learn(1)

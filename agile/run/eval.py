@@ -18,10 +18,11 @@ from __future__ import annotations
 import json
 import os
 
-from agile.run import common as cli
+from agile.run.arguments import command
+from agile.run import arguments, task_setup
+from agile.errors import AgileError
 
 from agile.run import multi_agent
-from agile.run.common import load_policy
 from agile.run.eval_breakdowns import error_by_command_tables
 from agile.run.evaluation import evaluate, evaluate_per_env, summarise, velocity_command_name
 from agile.run.policy import inference_cfg
@@ -40,13 +41,13 @@ def sweep(env, policy, num_episodes: int, cells: list[tuple[float, ...]], comman
 
     command_name = velocity_command_name(env, command_name)
     if command_name is None:
-        cli.fail(f"a sweep sets velocity commands; this task has none (commands: {env.command_manager.active_terms})")
+        raise AgileError(f"a sweep sets velocity commands; this task has none (commands: {env.command_manager.active_terms})")
     term = env.command_manager.get_term(command_name)
     if len(cells[0]) != term.command.shape[1]:
-        cli.fail(f"the sweep gives {len(cells[0])} command values; {command_name} has {term.command.shape[1]} "
+        raise AgileError(f"the sweep gives {len(cells[0])} command values; {command_name} has {term.command.shape[1]} "
                  "(--sweep_base_height is for tasks with a height command)")
     if env.num_envs < len(cells):
-        cli.fail(f"the sweep has {len(cells)} cells: use at least that many envs (--num_envs)")
+        raise AgileError(f"the sweep has {len(cells)} cells: use at least that many envs (--num_envs)")
     cell_of_env = torch.arange(env.num_envs, device=env.device) % len(cells)
     term.set_fixed_command(torch.tensor(cells, device=env.device)[cell_of_env])
     result = evaluate_per_env(env, policy, num_episodes, command_name)
@@ -101,9 +102,10 @@ def run_command_sweep(args, env, policy, checkpoint: str, device: str) -> None:
         plot_sweep(args.out)
 
 
+@command
 def main(argv=None) -> None:
-    parser = cli.new_parser(__doc__)
-    cli.add_common_args(parser, task_required=False)  # --plot_sweep alone builds nothing
+    parser = arguments.new_parser(__doc__)
+    arguments.add_common_args(parser, task_required=False)  # --plot_sweep alone builds nothing
     parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (default: the shipped policy); "
                         "for a multi-agent task its training run folder (the newest model of each group)")
     parser.add_argument("--command", type=float, nargs=3, default=None, metavar=("VX", "VY", "WZ"),
@@ -124,32 +126,32 @@ def main(argv=None) -> None:
     parser.add_argument("--out", default=None, help="write the metrics as JSON here")
     parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
     parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
-    cli.add_checkpoint_args(parser)
-    args = cli.parse(parser, argv)
+    arguments.add_checkpoint_args(parser)
+    args = arguments.parse(parser, argv)
 
     if args.plot_sweep:
         if not os.path.isfile(args.plot_sweep):
-            cli.fail(f"--plot_sweep {args.plot_sweep}: no such file")
+            raise AgileError(f"--plot_sweep {args.plot_sweep}: no such file")
         plot_sweep(args.plot_sweep)
         return
     if args.task is None:
         parser.error("the following arguments are required: --task")
     if args.sweep_command is not None and (args.sweep_lin_vel_x is not None or args.command is not None):
-        cli.fail("--sweep_command holds its own commands: not with --sweep_lin_vel_x or --command")
+        raise AgileError("--sweep_command holds its own commands: not with --sweep_lin_vel_x or --command")
     if multi_agent.is_multi_agent(args.task):
         multi_agent.eval_main(args)
         return
-    checkpoint = args.checkpoint or cli.shipped_policy(args)
+    checkpoint = args.checkpoint or task_setup.shipped_policy(args)
     if checkpoint is None:
-        cli.fail(f"no --checkpoint given and agile ships no policy for {args.task}")
-    contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint)
-    env_cfg, agent_cfg, device = cli.load_task(args)
-    cli.warn_overrides_not_repeated(contents, {"env": env_cfg}, "evaluate the task it was trained on")
+        raise AgileError(f"no --checkpoint given and agile ships no policy for {args.task}")
+    contents = task_setup.read_checkpoint(str(checkpoint), args.trust_checkpoint)
+    env_cfg, agent_cfg, device = task_setup.load_task(**arguments.task_options(args))
+    task_setup.warn_overrides_not_repeated(contents, {"env": env_cfg}, "evaluate the task it was trained on")
     env_cfg = inference_cfg(env_cfg)
     if args.command is not None:
         command = getattr(env_cfg.commands, "base_velocity", None)
         if command is None:
-            cli.fail(f"--command sets the base_velocity command; {args.task} has none")
+            raise AgileError(f"--command sets the base_velocity command; {args.task} has none")
         vx, vy, wz = args.command
         command.ranges.lin_vel_x, command.ranges.lin_vel_y, command.ranges.ang_vel_z = (vx, vx), (vy, vy), (wz, wz)
         command.rel_standing_envs = 0.0
@@ -160,7 +162,7 @@ def main(argv=None) -> None:
         for name, term in vars(env_cfg.events).items():
             if isinstance(term, EventTerm) and term.mode == "interval":
                 setattr(env_cfg.events, name, None)
-    env = cli.make_env(args.task, env_cfg, device, use_cache=not args.no_cache)
+    env = task_setup.make_env(task=args.task, env_cfg=env_cfg, device=device, collect_datasets_anew=args.no_cache)
     from agile.run.recording import UsdRecorder, VideoRecorder
 
     recorders = []
@@ -168,7 +170,7 @@ def main(argv=None) -> None:
         recorders.append(UsdRecorder(args.usd, env, num_frames=args.num_episodes * env.max_episode_length))
     if args.video:
         recorders.append(VideoRecorder(args.video, env))
-    policy = load_policy(contents, env, agent_cfg)
+    policy = task_setup.load_policy(contents, env, agent_cfg)
     if args.sweep_command is not None:
         run_command_sweep(args, env, policy, checkpoint, device)
         return

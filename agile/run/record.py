@@ -20,7 +20,9 @@ import math
 import os
 import time
 
-from agile.run import common as cli
+from agile.run.arguments import command
+from agile.run import arguments, task_setup
+from agile.errors import AgileError
 
 RECORD_GROUP = "record"
 LIGHT_CHANGE_STEPS = 60
@@ -159,9 +161,10 @@ def record(env, policy, writer, num_episodes: int, randomise_lights: bool = True
             "seconds": seconds, "frames_per_s": frames / seconds}
 
 
+@command
 def main(argv=None) -> None:
-    parser = cli.new_parser(__doc__)
-    cli.add_common_args(parser)
+    parser = arguments.new_parser(__doc__)
+    arguments.add_common_args(parser)
     parser.add_argument("--checkpoint", default=None,
                         help="RSL-RL checkpoint of the task's policy (default: the shipped policy)")
     parser.add_argument("--num_episodes", type=int, required=True, help="episodes to write")
@@ -175,37 +178,32 @@ def main(argv=None) -> None:
     parser.add_argument("--encode_processes", type=int, default=None, metavar="N",
                         help="encode the videos in N worker processes (0: in this one; default: one per env, at "
                         "most the CPU cores less two)")
-    cli.add_checkpoint_args(parser)
-    args = cli.parse(parser, argv)
+    arguments.add_checkpoint_args(parser)
+    args = arguments.parse(parser, argv)
     missing = [name for name in ("av", "pyarrow") if importlib.util.find_spec(name) is None]
     if missing:
-        cli.fail(f"agile record writes videos and parquet files with {' and '.join(missing)}: "
+        raise AgileError(f"agile record writes videos and parquet files with {' and '.join(missing)}: "
                  "pip install 'agile[record]'")
     if args.encode_processes is not None and args.encode_processes < 0:
-        cli.fail(f"--encode_processes {args.encode_processes}: give 0 (encode in this process) or more")
+        raise AgileError(f"--encode_processes {args.encode_processes}: give 0 (encode in this process) or more")
     if os.path.exists(args.out):
-        cli.fail(f"--out {args.out} exists: give a new folder (a dataset is never written over another)")
+        raise AgileError(f"--out {args.out} exists: give a new folder (a dataset is never written over another)")
 
     import agile.tasks
     from agile.run.lerobot_dataset import LeRobotDatasetWriter
     from agile.run.policy import inference_cfg
     from agile.utils.config import load_entry_point
 
-    try:
-        spec = agile.tasks.task_spec(args.task)
-    except KeyError as err:
-        cli.fail(err.args[0])
+    spec = agile.tasks.task_spec(args.task)
     if agile.tasks.task_kind(args.task) != "record":
         recording = [t for t in agile.tasks.registered_tasks() if agile.tasks.task_kind(t) == "record"]
-        cli.fail(f"{args.task} is not a recording task; recording tasks: {', '.join(recording)}")
-    checkpoint = args.checkpoint or cli.shipped_policy(args)
-    if checkpoint is None:
-        cli.fail(f"no --checkpoint given and agile ships no policy for {args.task} (the policy of "
-                 f"{spec.kwargs.get('shipped_policy', args.task)})")
-    contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint)
-    env_cfg, agent_cfg, device = cli.load_task(args)
-    env = cli.make_env(args.task, inference_cfg(env_cfg), device, use_cache=not args.no_cache)
-    palettes = None if args.fixed_colors else spec.kwargs.get("color_palettes")
+        raise AgileError(f"{args.task} is not a recording task; recording tasks: {', '.join(recording)}")
+    checkpoint, overrides = task_setup.policy_to_run(task=args.task, checkpoint=args.checkpoint, overrides=args.overrides)
+    contents = task_setup.read_checkpoint(checkpoint, args.trust_checkpoint)
+    env_cfg, agent_cfg, device = task_setup.load_task(**arguments.task_options(args, overrides=overrides))
+    env = task_setup.make_env(task=args.task, env_cfg=inference_cfg(env_cfg), device=device,
+                         collect_datasets_anew=args.no_cache)
+    palettes = None if args.fixed_colors else spec.color_palettes
     if palettes:  # registered as "module:attribute" entry points (registering imports no simulator code)
         palettes = {name: load_entry_point(colors) if isinstance(colors, str) else colors
                     for name, colors in palettes.items()}
@@ -214,14 +212,14 @@ def main(argv=None) -> None:
         if palettes:
             record_cameras(env)
     except ValueError as err:
-        cli.fail(str(err))
-    policy = cli.load_policy(contents, env, agent_cfg)
-    description = args.task_description or spec.kwargs.get("task_description", args.task)
+        raise AgileError(str(err))
+    policy = task_setup.load_policy(contents, env, agent_cfg)
+    description = args.task_description or (spec.task_description or args.task)
     encode_processes = args.encode_processes
     if encode_processes is None:
         encode_processes = max(0, min(env.num_envs, (os.cpu_count() or 1) - 2))
     writer = LeRobotDatasetWriter(args.out, fps=round(1.0 / env.step_dt), task_description=description,
-                                  robot_type=spec.kwargs.get("robot_type", "robot"), state=state, action=action,
+                                  robot_type=(spec.robot_type or "robot"), state=state, action=action,
                                   video_shapes=videos, streams=env.num_envs, encode_processes=encode_processes)
     print(f"[agile] recording {args.num_episodes} episodes of {args.task} with {checkpoint} into {args.out} "
           f"({env.num_envs} envs, {round(1.0 / env.step_dt)} fps, videos {', '.join(videos)}, encoded "

@@ -21,7 +21,9 @@ import os
 import sys
 from functools import partial
 
-from agile.run import common as cli
+from agile.run.arguments import command
+from agile.run import arguments, task_setup
+from agile.errors import AgileError
 
 from agile.run import multi_agent
 
@@ -69,7 +71,7 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
     if record:
         video_cfg = inference_cfg(copy.deepcopy(env_cfg))
         video_cfg.num_envs = 1
-        video_env = cli.make_env(args.task, video_cfg, device, use_cache=not args.no_cache)
+        video_env = task_setup.make_env(task=args.task, env_cfg=video_cfg, device=device, collect_datasets_anew=args.no_cache)
         os.makedirs(os.path.join(log_dir, "videos"), exist_ok=True)
     done = 0
     while done < iterations:
@@ -106,16 +108,16 @@ def distributed_rank(args):
     rank = rank_from_env()
     if rank is None:
         if args.distributed:
-            cli.fail("--distributed: start the processes with torchrun (WORLD_SIZE is unset or 1), e.g. "
+            raise AgileError("--distributed: start the processes with torchrun (WORLD_SIZE is unset or 1), e.g. "
                      "torchrun --standalone --nproc_per_node=2 scripts/train.py --task ... --distributed")
         return None
     if not args.distributed:
-        cli.fail(f"WORLD_SIZE={rank.world_size} (torchrun) without --distributed: add --distributed to train "
+        raise AgileError(f"WORLD_SIZE={rank.world_size} (torchrun) without --distributed: add --distributed to train "
                  f"data-parallel")
     try:
         args.device = rank_device(rank, args.device)
     except ValueError as err:
-        cli.fail(str(err))
+        raise AgileError(str(err))
     make_current(args.device)
     return rank
 
@@ -135,7 +137,7 @@ def check_rank_weights(runner, rank) -> None:
         runner.alg.release_graph()  # a live graph with NCCL kernels in it makes the destroy below hang
     torch.distributed.destroy_process_group()
     if len(set(digests)) != 1:
-        cli.fail(f"the {rank.world_size} ranks ended with different weights (sha256 by rank: {digests})")
+        raise AgileError(f"the {rank.world_size} ranks ended with different weights (sha256 by rank: {digests})")
     if rank.is_main:
         print(f"[agile] all {rank.world_size} ranks hold the same weights", flush=True)
 
@@ -148,10 +150,10 @@ def as_policy_checkpoint(checkpoint: dict, path: str, state_key: str) -> dict:
     if state_key in checkpoint:
         return checkpoint
     if state_key == "student_state_dict":
-        cli.fail(f"--init_policy {path}: a distilled task's student starts from a distilled student (its "
+        raise AgileError(f"--init_policy {path}: a distilled task's student starts from a distilled student (its "
                  f"student_state_dict); the file holds {sorted(checkpoint)}")
     if "student_state_dict" not in checkpoint:
-        cli.fail(f"--init_policy {path}: no actor_state_dict or student_state_dict in it (it holds "
+        raise AgileError(f"--init_policy {path}: no actor_state_dict or student_state_dict in it (it holds "
                  f"{sorted(checkpoint)})")
     return {state_key: checkpoint["student_state_dict"], "iter": checkpoint.get("iter", 0),
             "infos": checkpoint.get("infos")}
@@ -171,7 +173,7 @@ def initial_policy_checkpoint(checkpoint: dict, path: str, state_key: str, log_d
             policy["distribution.log_std_param"] = torch.full_like(policy["distribution.log_std_param"],
                                                                    math.log(action_std))
         else:
-            cli.fail(f"--init_action_std: the policy in {path} has no state-independent std to reset")
+            raise AgileError(f"--init_action_std: the policy in {path} has no state-independent std to reset")
         print(f"[agile] action noise reset to std {action_std}")
     if log_dir is not None:
         torch.save(checkpoint, os.path.join(log_dir, "init_policy.pt"))
@@ -188,7 +190,7 @@ def shipped_init_policy(task: str, agent_cfg) -> str | None:
         return None
     path = agile.tasks.pretrained_policy(source_task)
     if path is None:
-        cli.fail(f"{task} fine-tunes the policy of {source_task}, and agile ships none: train {source_task} first "
+        raise AgileError(f"{task} fine-tunes the policy of {source_task}, and agile ships none: train {source_task} first "
                  f"and give --init_policy PATH (its model_<it>.pt)")
     print(f"[agile] {task} fine-tunes {source_task}: the actor starts from its shipped policy {path}")
     return str(path)
@@ -201,23 +203,24 @@ def distillation_teacher(args, agent_cfg, resuming: bool) -> str | None:
 
     if not is_distillation(agent_cfg):
         if args.teacher:
-            cli.fail(f"--teacher: {args.task} is trained by PPO, not distilled from a teacher")
+            raise AgileError(f"--teacher: {args.task} is trained by PPO, not distilled from a teacher")
         return None
     if resuming:
         return None
     path = args.teacher or agile.tasks.pretrained_policy(agent_cfg.teacher_task)
     if path is None:
-        cli.fail(f"{args.task} distils the policy of {agent_cfg.teacher_task}, and agile ships none: train it "
+        raise AgileError(f"{args.task} distils the policy of {agent_cfg.teacher_task}, and agile ships none: train it "
                  f"first and give --teacher PATH (its model_<it>.pt or exported/policy.pt)")
     if not os.path.isfile(path):
-        cli.fail(f"--teacher file not found: {path}")
+        raise AgileError(f"--teacher file not found: {path}")
     return str(path)
 
 
+@command
 def main(argv=None) -> None:
-    parser = cli.new_parser(__doc__)
-    cli.add_common_args(parser)
-    cli.add_recipe_arg(parser)
+    parser = arguments.new_parser(__doc__)
+    arguments.add_common_args(parser)
+    arguments.add_recipe_arg(parser)
     parser.add_argument("--max_iterations", type=int, default=None,
                         help="PPO iterations to run (default: the task's); with --resume, iterations after the "
                              "checkpoint's")
@@ -255,16 +258,16 @@ def main(argv=None) -> None:
     parser.add_argument("--distributed", action="store_true",
                         help="data-parallel over the processes torchrun starts (one per GPU; --device cpu: gloo on "
                         "CPU processes): each rank its own --num_envs envs and seed + rank, logs on rank 0")
-    cli.add_checkpoint_args(parser)
-    args = cli.parse(parser, argv)
+    arguments.add_checkpoint_args(parser)
+    args = arguments.parse(parser, argv)
     rank = distributed_rank(args)
 
     multi_agent_task = multi_agent.is_multi_agent(args.task)
     if multi_agent_task:
         multi_agent.check_train_args(args)
         if rank is not None:
-            cli.fail("--distributed trains single-agent tasks; a multi-agent task trains on one device")
-    env_cfg, agent_cfg, device = cli.load_task(args)
+            raise AgileError("--distributed trains single-agent tasks; a multi-agent task trains on one device")
+    env_cfg, agent_cfg, device = task_setup.load_task(**arguments.task_options(args))
     if rank is not None:
         env_cfg.seed += rank.rank
         agent_cfg.seed += rank.rank
@@ -280,38 +283,38 @@ def main(argv=None) -> None:
         return
     if args.init_policy is not None:
         if len(args.init_policy) != 1:
-            cli.fail(f"--init_policy takes one checkpoint for a single-agent task, got {args.init_policy}")
+            raise AgileError(f"--init_policy takes one checkpoint for a single-agent task, got {args.init_policy}")
         args.init_policy = args.init_policy[0]
     resume_path = None
     if args.resume or args.checkpoint:
-        resume_path = args.checkpoint or cli.latest_checkpoint(args.log_root, agent_cfg.experiment_name)
+        resume_path = args.checkpoint or task_setup.latest_checkpoint(args.log_root, agent_cfg.experiment_name)
         if not os.path.isfile(resume_path):
-            cli.fail(f"checkpoint not found: {resume_path}")
+            raise AgileError(f"checkpoint not found: {resume_path}")
     if args.init_policy and resume_path:
-        cli.fail("--init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
+        raise AgileError("--init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
     # read before the env is built: a file that is missing or would run code is refused at once
-    resume_contents = cli.read_checkpoint(resume_path, args.trust_checkpoint) if resume_path else None
+    resume_contents = task_setup.read_checkpoint(resume_path, args.trust_checkpoint) if resume_path else None
     if resume_contents is not None:
-        cli.warn_overrides_not_repeated(resume_contents, {"env": env_cfg, "agent": agent_cfg},
+        task_setup.warn_overrides_not_repeated(resume_contents, {"env": env_cfg, "agent": agent_cfg},
                                         "continue the training it was in")
     if args.init_policy is None and resume_path is None:
         args.init_policy = shipped_init_policy(args.task, agent_cfg)
     if args.init_policy and not os.path.isfile(args.init_policy):
-        cli.fail(f"--init_policy file not found: {args.init_policy}")
+        raise AgileError(f"--init_policy file not found: {args.init_policy}")
     if args.init_action_std is not None and (not args.init_policy or not args.init_action_std > 0):
-        cli.fail("--init_action_std needs --init_policy and a positive value "
+        raise AgileError("--init_action_std needs --init_policy and a positive value "
                  "(a new run's initial std is agent.actor.distribution_cfg.init_std)")
     from agile.rl_env.rsl_rl import policy_obs_set, policy_state_key
 
     init_contents = None
     if args.init_policy:  # refused before the env is built when it holds no policy
-        init_contents = as_policy_checkpoint(cli.read_checkpoint(args.init_policy, args.trust_checkpoint),
+        init_contents = as_policy_checkpoint(task_setup.read_checkpoint(args.init_policy, args.trust_checkpoint),
                                              args.init_policy, policy_state_key(agent_cfg))
     teacher_path = distillation_teacher(args, agent_cfg, resuming=resume_path is not None)
     if args.inject_nan_actions is not None:
         share, every = args.inject_nan_actions
         if not (0.0 < share <= 1.0 and every >= 1 and every == int(every)):
-            cli.fail(f"--inject_nan_actions SHARE EVERY: SHARE within (0, 1], EVERY a whole number >= 1; got "
+            raise AgileError(f"--inject_nan_actions SHARE EVERY: SHARE within (0, 1], EVERY a whole number >= 1; got "
                      f"{share:g} {every:g}")
 
     from agile.rl_env.rsl_rl.checkpoints import restore_runner, training_runner
@@ -319,13 +322,13 @@ def main(argv=None) -> None:
     from agile.rl_env.rsl_rl.distillation import load_teacher
     from agile.rl_env.rsl_rl.reward_normalization import starts_normalizing
 
-    env = cli.make_env(args.task, env_cfg, device, use_cache=not args.no_cache)
+    env = task_setup.make_env(task=args.task, env_cfg=env_cfg, device=device, collect_datasets_anew=args.no_cache)
     print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
           f"obs {env.observation_manager.group_dims}, actions {env.action_manager.total_action_dim}")
     log_dir = None  # distributed: rank 0 writes the logs, checkpoints and exports
     if rank is None or rank.is_main:
-        log_dir = cli.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
-        cli.dump_configs(log_dir, env_cfg, agent_cfg)
+        log_dir = task_setup.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
+        task_setup.dump_configs(log_dir, env_cfg, agent_cfg)
     wrap = None
     if args.inject_nan_actions is not None:
         from agile.rl_env.rsl_rl.fault_injection import NanActionVecEnv
@@ -333,10 +336,10 @@ def main(argv=None) -> None:
         share, every = args.inject_nan_actions
         wrap = partial(NanActionVecEnv, share=share, every_iterations=int(every),
                        steps_per_iteration=agent_cfg.num_steps_per_env)
-    with cli.quiet_stdout():
+    with task_setup.quiet_stdout():
         runner = training_runner(env, agent_cfg, log_dir, wrap, overrides=args.overrides)
     print(f"[agile] algorithm: {type(runner.alg).__name__}")  # e.g. RewardNormalizationL2C2SyncFreePPO: extensions too
-    runner.logger.git_status_repos = cli.git_repos()
+    runner.logger.git_status_repos = task_setup.git_repos()
     if log_dir is not None:
         show_progress(runner, args.progress, args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
     if resume_path:
@@ -347,7 +350,7 @@ def main(argv=None) -> None:
             try:
                 env.load_training_state(env_state)
             except ValueError as err:  # a checkpoint of another env (terrain, curriculum terms, env count)
-                cli.fail(f"--checkpoint {resume_path}: {err}")
+                raise AgileError(f"--checkpoint {resume_path}: {err}")
         else:
             print("[agile] the checkpoint holds no env state (an older checkpoint): curricula start over")
         print(f"[agile] continuing at iteration {runner.current_learning_iteration}")
@@ -356,7 +359,7 @@ def main(argv=None) -> None:
         try:
             load_teacher(runner, teacher_path, trust=args.trust_checkpoint)
         except ValueError as err:
-            cli.fail(str(err))
+            raise AgileError(str(err))
     if args.init_policy:
         print(f"[agile] {policy_obs_set(agent_cfg)} initialised from {args.init_policy}")
         start = initial_policy_checkpoint(init_contents, args.init_policy, policy_state_key(agent_cfg), log_dir,
