@@ -227,8 +227,6 @@ def test_play_runs_sinusoidal_actions():
 def test_a_shipped_policy_runs_in_the_env_it_was_trained_in(tmp_path, monkeypatch, capsys):
     """A shipped policy with conditions in conditions.yaml (none has them now) gets them before the user's
     overrides, which still win; play, eval and export all take the shipped policy through task_setup.shipped_policy."""
-    import argparse
-
     import agile.tasks
     from agile.run import task_setup
 
@@ -236,12 +234,13 @@ def test_a_shipped_policy_runs_in_the_env_it_was_trained_in(tmp_path, monkeypatc
     conditions.write_text("Velocity-Height-G1-Teacher-v0:\n  trained_on: flat ground\n"
                           "  env_overrides: [env.scene.terrain=null, env.curriculum.terrain_levels=null]\n")
     monkeypatch.setattr(agile.tasks, "PRETRAINED_CONDITIONS", conditions)
-    args = argparse.Namespace(task="Velocity-Height-G1-v0", overrides=["env.num_envs=3"])
-    assert task_setup.shipped_policy(args).endswith("Velocity-Height-G1-Teacher-v0.pt")
-    assert args.overrides == ["env.scene.terrain=null", "env.curriculum.terrain_levels=null", "env.num_envs=3"]
+    given = ["env.num_envs=3"]
+    path, overrides = task_setup.shipped_policy(task="Velocity-Height-G1-v0", overrides=given)
+    assert path.endswith("Velocity-Height-G1-Teacher-v0.pt") and given == ["env.num_envs=3"]  # the caller's untouched
+    assert overrides == ["env.scene.terrain=null", "env.curriculum.terrain_levels=null", "env.num_envs=3"]
     assert "shipped policy: trained on flat ground" in capsys.readouterr().out
-    args = argparse.Namespace(task="Velocity-G1-History-v0", overrides=[])
-    assert task_setup.shipped_policy(args).endswith("Velocity-G1-History-v0.pt") and args.overrides == []
+    path, overrides = task_setup.shipped_policy(task="Velocity-G1-History-v0")
+    assert path.endswith("Velocity-G1-History-v0.pt") and overrides == []
 
 
 def test_eval_of_a_shipped_policy_trained_on_the_registered_task(tmp_path):
@@ -456,14 +455,11 @@ def test_train_progress_bar_shows_the_eta_and_a_full_block_every_n_iterations(tm
 
 @pytest.mark.skipif(__import__("warp").is_cuda_available(), reason="the CPU fallback is what this checks")
 @pytest.mark.parametrize("num_envs, said", [(None, "running on CPU with 4 envs (a small count"),
-                                            (64, "running on CPU with 64 envs (as --num_envs asks)")])
+                                            (64, "running on CPU with 64 envs\n"), (1, "running on CPU with 1 env\n")])
 def test_the_cpu_fallback_says_the_env_count_it_builds(num_envs, said, capsys):
-    import argparse
+    from agile.run import task_setup
 
-    from agile.run import arguments, task_setup
-
-    args = argparse.Namespace(task="Velocity-T1-v0", num_envs=num_envs, device=None, seed=None, overrides=[])
-    env_cfg, _, device = task_setup.load_task(**arguments.task_options(args))
+    env_cfg, _, device = task_setup.load_task(task="Velocity-T1-v0", num_envs=num_envs)
     assert device == "cpu" and env_cfg.num_envs == (num_envs or task_setup.CPU_DEFAULT_NUM_ENVS)
     assert f"no GPU found: {said}" in capsys.readouterr().out
 

@@ -69,7 +69,8 @@ def latest_run(log_root: str, experiment: str, groups) -> str:
     return str(runs[-1])
 
 
-def train(args, env_cfg, agent_cfg, device: str) -> None:
+def train(args, env_cfg, agent_cfg, device: str) -> tuple[str, str]:
+    """Train every agent group (`args`: `agile.run.train.TrainOptions`); (the run's folder, its export folder)."""
     from agile.marl.runner import MultiAgentRunner
     from agile.rl_env.rsl_rl.checkpoints import restore_runner
     from agile.rl_env.rsl_rl.progress import show_progress
@@ -89,7 +90,7 @@ def train(args, env_cfg, agent_cfg, device: str) -> None:
         with task_setup.quiet_stdout():
             runner = MultiAgentRunner(world, agent_cfg, log_dir, str(world.device))
     except ConfigError as err:
-        raise AgileError(str(err))
+        raise AgileError(str(err)) from err
     for group, contents in resume_contents.items():
         print(f"[agile] group '{group}': resuming from {resume_files[group]}")
         restore_runner(runner.runners[group], contents)
@@ -109,6 +110,7 @@ def train(args, env_cfg, agent_cfg, device: str) -> None:
     export_groups(runner, export_dir)
     print(f"[agile] logs and checkpoints of each group in {log_dir}/<group>, its exported policy in "
           f"{export_dir}/<group>")
+    return log_dir, export_dir
 
 
 def export_groups(runner, out_dir: str) -> None:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import logging
 import os
 import pickle
+import tempfile
 import typing
 from datetime import datetime
 from pathlib import Path
@@ -125,8 +126,12 @@ def check_writable(path: str, field: str) -> None:
         existing = os.path.dirname(existing)
     if existing != target and not os.path.isdir(existing):
         raise AgileError(f"{field} {path}: {existing} is a file, not a folder")
-    if not os.access(existing, os.W_OK):
-        raise AgileError(f"{field} {path}: {existing} cannot be written (no write permission)")
+    folder = existing if os.path.isdir(existing) else os.path.dirname(existing)
+    try:  # a file made and removed at once: what the OS allows (permissions, a read-only or virtual file system)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as err:
+        raise AgileError(f"{field} {path}: {folder} cannot be written ({err.strerror})") from err
 
 
 def plural(count: int, noun: str) -> str:
