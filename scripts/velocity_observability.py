@@ -25,7 +25,7 @@ def rollout(num_envs: int, steps: int, device: str, seed: int) -> tuple[torch.Te
     """(frames (T, N, F), velocity (T, N, 2), command velocity (T, N, 2), alive (T, N)) over `steps` env steps: the
     student's observation terms of each step, the true planar base velocity in the base's yaw frame (the frame the
     command and the tracking reward use), the commanded one, and whether the env did not end at that step."""
-    from agile.rl_env.rsl_rl.checkpoints import load_checkpoint
+    from agile.rl.checkpoints import load_checkpoint
     from agile.run import task_setup
     from agile.run.policy import inference_cfg, load_policy
     from agile.utils.math import yaw_from_quat

@@ -58,7 +58,7 @@ def height_tracking_env_and_agent(tmp_path_factory):
     import io
 
     import agile.tasks
-    from agile.rl_env.fallen_states import FallenStateDatasetCfg
+    from agile.tasks.stand_up.fallen_states import FallenStateDatasetCfg
     from agile.run import task_setup
 
     env_cfg, agent_cfg = agile.tasks.load_cfgs("HeightTracking-G1-v0")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import torch
 from tensordict import TensorDict
 
-from agile.rl_env.rsl_rl.runner_cfg import with_extensions
+from agile.rl.configs import with_extensions
 
 
 class FakeVecEnv:

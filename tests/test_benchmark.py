@@ -36,7 +36,7 @@ def test_the_gpu_timeline_splits_an_iteration_into_its_phases(tmp_path):
     first event to the last, add up to no more than the host's wall time of the same loop (plus the event's
     resolution)."""
     from agile.rl_env import ManagerBasedRLEnv
-    from agile.rl_env.rsl_rl.checkpoints import training_runner
+    from agile.rl.runner import training_runner
     from agile.run import task_setup
 
     env_cfg, agent_cfg, device = task_setup.load_task(task="Velocity-T1-v0", num_envs=64, device="cuda:0")

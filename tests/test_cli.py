@@ -10,7 +10,7 @@ from commands import run_main
 
 import agile.tasks
 from agile.cli import main as cli_main
-from agile.rl_env.rsl_rl import DistillationRunnerCfg
+from agile.rl import DistillationRunnerCfg
 from agile.tasks.catalogue import catalogue, evaluated_tasks, missed_criteria
 from agile.tasks.describe import MISSING, config_diff, task_config_tree
 

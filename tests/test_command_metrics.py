@@ -13,7 +13,7 @@ from fakes import FakeEnv
 
 import agile.tasks
 from agile.rl_env.managers import CommandManager, CommandTerm
-from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+from agile.rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 from agile.utils.config import configclass
 
 # -- the mechanism, on a fake term ----------------------------------------------------------------------------

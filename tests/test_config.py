@@ -143,7 +143,7 @@ def test_a_policy_trained_on_the_registered_task_has_no_conditions(task):
 
 def test_rsl_rl_runner_options_reach_the_runner_cfg():
     import agile.tasks
-    from agile.rl_env.rsl_rl import to_rsl_rl_dict
+    from agile.rl import to_rsl_rl_dict
 
     _, agent_cfg = agile.tasks.load_cfgs("Velocity-T1-v0")
     assert to_rsl_rl_dict(agent_cfg)["check_for_nan"] is True
@@ -157,8 +157,8 @@ def test_the_float32_matmul_precision_is_a_runner_setting_applied_to_the_process
     import torch
 
     import agile.tasks
-    from agile.rl_env.rsl_rl import to_rsl_rl_dict
-    from agile.rl_env.rsl_rl.runner_cfg import set_matmul_precision
+    from agile.rl import to_rsl_rl_dict
+    from agile.rl.configs import set_matmul_precision
 
     _, agent_cfg = agile.tasks.load_cfgs("Velocity-G1-History-v0")
     assert agent_cfg.float32_matmul_precision == "highest"

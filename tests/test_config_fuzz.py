@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from commands import FLAT_GROUND, SMALL_TERRAIN
 
 import agile.tasks  # noqa: F401  (registration)
-from agile.rl_env.rsl_rl import flatten_groups
+from agile.rl import flatten_groups
 from agile.tasks import load_cfgs
 from agile.utils.config import ConfigError, apply_overrides
 

@@ -56,7 +56,7 @@ def test_one_distillation_iteration_and_its_export(student, teacher_run, tmp_pat
     assert [a["name"] for a in descriptor["actions"]] == ["joint_pos"]  # no harness, no random arms
     assert descriptor["policy"]["recurrent"] == student.endswith("Recurrent-v0")
     exported = torch.jit.load(str(run_dir / "exported" / "policy.pt"))
-    from agile.rl_env.rsl_rl import policy_obs_set
+    from agile.rl import policy_obs_set
     from agile.run import task_setup
     
     import agile.tasks
@@ -67,7 +67,7 @@ def test_one_distillation_iteration_and_its_export(student, teacher_run, tmp_pat
     student_policy = task_setup.load_runner(checkpoint, env, agent_cfg).get_inference_policy(device="cpu")
     assert policy_obs_set(agent_cfg) == "student"
     exported.reset()
-    from agile.rl_env.rsl_rl import flatten_groups
+    from agile.rl import flatten_groups
 
     obs, _ = env.reset()
     with torch.inference_mode():

@@ -11,8 +11,8 @@ from rsl_rl.utils import resolve_callable
 from tensordict import TensorDict
 
 import agile.tasks
-from agile.rl_env.rsl_rl import to_rsl_rl_dict
-from agile.rl_env.rsl_rl.distribution import SyncFreeGaussianDistribution
+from agile.rl import to_rsl_rl_dict
+from agile.rl.distribution import SyncFreeGaussianDistribution
 
 NUM_ENVS, NUM_ACTIONS = 64, 12
 
@@ -62,7 +62,7 @@ def test_shipped_checkpoint_weights_load():
         return MLPModel(obs, {"actor": ["policy"]}, "actor", NUM_ACTIONS,
                         hidden_dims=[8], distribution_cfg={"class_name": class_name, "init_std": 0.5})
     theirs = actor("GaussianDistribution")
-    ours = actor("agile.rl_env.rsl_rl.distribution:SyncFreeGaussianDistribution")
+    ours = actor("agile.rl.distribution:SyncFreeGaussianDistribution")
     ours.load_state_dict(theirs.state_dict())
     assert set(ours.state_dict()) == set(theirs.state_dict())
 

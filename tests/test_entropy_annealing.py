@@ -9,8 +9,8 @@ import torch
 from tensordict import TensorDict
 
 import agile.tasks
-from agile.rl_env.rsl_rl import to_rsl_rl_dict
-from agile.rl_env.rsl_rl.entropy_annealing import EntropyAnnealingPPO
+from agile.rl import to_rsl_rl_dict
+from agile.rl.algorithms.entropy_annealing import EntropyAnnealingPPO
 from agile.utils.config import ConfigError
 
 NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS, EPISODE_STEPS = 8, 10, 6, 3, 20
@@ -31,7 +31,7 @@ def make_algorithm(**annealing) -> EntropyAnnealingPPO:
            "actor": {"class_name": "MLPModel", "hidden_dims": [16], "activation": "elu",
                      "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": 1.0}},
            "critic": {"class_name": "MLPModel", "hidden_dims": [16], "activation": "elu"},
-           "algorithm": {"class_name": "agile.rl_env.rsl_rl.entropy_annealing:EntropyAnnealingPPO",
+           "algorithm": {"class_name": "agile.rl.algorithms.entropy_annealing:EntropyAnnealingPPO",
                          "entropy_coef": 0.005, "entropy_annealing": annealing}}
     torch.manual_seed(0)
     return EntropyAnnealingPPO.construct_algorithm(obs, FakeEnv(), cfg, "cpu")
@@ -103,7 +103,7 @@ def test_bad_settings_name_the_field(field, value, message):
 def test_pick_place_anneals_as_agile_does():
     _, agent_cfg = agile.tasks.load_cfgs("PickPlace-G1-v0")
     algorithm = to_rsl_rl_dict(agent_cfg)["algorithm"]
-    assert algorithm["class_name"] == "agile.rl_env.rsl_rl.entropy_annealing:EntropyAnnealingPPO"
+    assert algorithm["class_name"] == "agile.rl.algorithms.entropy_annealing:EntropyAnnealingPPO"
     assert algorithm["entropy_annealing"] == {"start_iteration": 2000, "min_episode_length_share": 0.3,
                                               "decay_per_iteration": 0.9998, "min_entropy_coef": 0.001}
     agent_cfg.algorithm.entropy_annealing.decay_per_iteration = 0.0

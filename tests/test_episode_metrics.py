@@ -16,7 +16,7 @@ from fakes import FakeEnv
 
 import agile.tasks
 from agile.rl_env import mdp
-from agile.rl_env.fallen_states import FallenStateDatasetCfg
+from agile.tasks.stand_up.fallen_states import FallenStateDatasetCfg
 from agile.rl_env.managers import MetricsManager, MetricTerm, merge_episode_metrics
 from agile.tasks.velocity.velocity_common import BASE_HEIGHT_SENSOR
 from agile.utils.config import ConfigError, configclass
@@ -209,7 +209,7 @@ def test_eval_reports_the_stand_up_success(stand_up, tmp_path):
     from agile.run import eval as eval_script
     from rsl_rl.runners import OnPolicyRunner
 
-    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+    from agile.rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 
     env, agent_cfg, cache_dir = stand_up
     checkpoint = tmp_path / "model.pt"

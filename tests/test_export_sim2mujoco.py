@@ -13,9 +13,10 @@ from rsl_rl.runners import OnPolicyRunner
 
 import agile.tasks
 from agile.assets.unitree_g1 import g1_robot_cfg
-from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, make_recurrent, to_rsl_rl_dict
-from agile.rl_env.rsl_rl.exporter import (example_input, export_policy, io_descriptor, read_io_descriptor,
-                                          write_io_descriptor)
+from agile.rl import RslRlVecEnvWrapper, make_recurrent, to_rsl_rl_dict
+from agile.export.io_descriptor import io_descriptor
+from agile.export.policy_files import example_input, export_policy
+from agile.rl_env.io_descriptor_file import read_io_descriptor, write_io_descriptor
 from commands import FLAT_GROUND
 from scenes import robot_sim
 

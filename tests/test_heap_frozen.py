@@ -54,8 +54,8 @@ def test_the_training_runners_learn_runs_frozen_and_gives_the_heap_back(tmp_path
     import gymnasium as gym
 
     import agile.tasks
-    from agile.rl_env.rsl_rl.checkpoints import training_runner
-    from agile.rl_env.rsl_rl.vecenv_wrapper import RslRlVecEnvWrapper
+    from agile.rl.runner import training_runner
+    from agile.rl.vecenv_wrapper import RslRlVecEnvWrapper
 
     frozen_at_steps = []
 

@@ -24,7 +24,7 @@ def env_and_agent(height_tracking_env_and_agent):
 def test_the_built_env_reset_and_one_ppo_iteration(env_and_agent, tmp_path):
     from rsl_rl.runners import OnPolicyRunner
 
-    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+    from agile.rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 
     env, agent_cfg = env_and_agent
     assert len(env.event_manager.get_term("reset_base").states) > 0  # the dataset was collected and handed over
@@ -329,7 +329,7 @@ def test_the_exported_policy_runs_a_height_ramp_in_plain_mujoco(env_and_agent, t
     """The IO descriptor names the tracked point, and sim2mujoco drives the policy with a height ramp there."""
     from rsl_rl.runners import OnPolicyRunner
 
-    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+    from agile.rl import RslRlVecEnvWrapper, to_rsl_rl_dict
     from agile.run import sim2mujoco
     from agile.run.export import export
     from agile.run.mujoco_policy import DescriptorPolicy, yaml_load

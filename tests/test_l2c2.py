@@ -1,4 +1,4 @@
-"""AGILE's L2C2 term (agile.rl_env.rsl_rl.l2c2): zero where consecutive observations agree or an episode ends between
+"""AGILE's L2C2 term (agile.rl.algorithms.l2c2): zero where consecutive observations agree or an episode ends between
 them, grows with the change and its weights, enters the update and its log, composes with reward normalisation, and
 is refused with a PPO class that has no place for it (CPU, on a fake env)."""
 
@@ -8,14 +8,14 @@ import pytest
 import torch
 from tensordict import TensorDict
 
-from agile.rl_env.rsl_rl.l2c2 import L2C2
-from agile.rl_env.rsl_rl.reward_normalization import RewardNormalization
-from agile.rl_env.rsl_rl.sync_free_ppo import SyncFreePPO
+from agile.rl.algorithms.l2c2 import L2C2
+from agile.rl.algorithms.reward_normalization import RewardNormalization
+from agile.rl.algorithms.sync_free_ppo import SyncFreePPO
 from agile.utils.config import ConfigError
 from ppo_fakes import ppo_algorithm
 
 NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS = 16, 6, 4, 3
-SYNC_FREE = "agile.rl_env.rsl_rl.sync_free_ppo:SyncFreePPO"
+SYNC_FREE = "agile.rl.algorithms.sync_free_ppo:SyncFreePPO"
 
 
 def make(l2c2: dict | None = None, **settings):
@@ -101,7 +101,7 @@ def test_a_bad_setting_is_named(values, field):
 def test_the_captured_update_replays_the_term_with_new_draws():
     """CapturedPPO records the mini-batch step, the L2C2 term's random pairs included, and replays it: the replayed
     updates log a term that changes with the draws and the rollout."""
-    algorithm = ppo_algorithm("agile.rl_env.rsl_rl.captured_ppo:CapturedPPO", NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS,
+    algorithm = ppo_algorithm("agile.rl.algorithms.captured_ppo:CapturedPPO", NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS,
                               device="cuda:0", l2c2={})
     terms = []
     for _ in range(4):  # the first update is eager, the second captures, the rest replay

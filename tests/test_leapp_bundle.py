@@ -11,8 +11,8 @@ import yaml
 from commands import run_command
 
 import agile.tasks
-from agile.rl_env.rsl_rl.checkpoints import load_checkpoint
-from agile.rl_env.rsl_rl.leapp_bundle import SUPPORTED_OBSERVATIONS, DeployGraph, UnsupportedPolicyError
+from agile.rl.checkpoints import load_checkpoint
+from agile.export.leapp_bundle import SUPPORTED_OBSERVATIONS, DeployGraph, UnsupportedPolicyError
 from agile.run import mujoco_robot, sim2mujoco
 from agile.run.env import build_env
 from agile.run.export import export, export_leapp

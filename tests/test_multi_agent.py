@@ -13,7 +13,7 @@ from agile.assets.booster_t1 import t1_robot_cfg
 from agile.marl import MultiAgentEnv, MultiAgentEnvCfg, Schedule
 from agile.marl.rsl_rl import AgentGroupCfg, GroupVecEnv, MultiAgentRunnerCfg
 from agile.marl.runner import MultiAgentRunner
-from agile.rl_env.rsl_rl import flatten_groups
+from agile.rl import flatten_groups
 from agile.sim import ContactSensorCfg, HeightScannerCfg, SceneCfg
 from agile.tasks.velocity.t1 import velocity_env_cfg as t1_task
 from agile.tasks.velocity.t1.agents.rsl_rl_cfg import t1_velocity_ppo_runner_cfg

@@ -88,7 +88,7 @@ def test_command_sliders_start_standing_and_walk_the_frozen_lower_body(gui):
 def test_play_runs_a_pick_place_policy_in_the_debug_variant(gui, tmp_path, capsys):
     from rsl_rl.runners import OnPolicyRunner
 
-    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+    from agile.rl import RslRlVecEnvWrapper, to_rsl_rl_dict
     from agile.run import play
 
     env, _, _ = gui  # the task's observations and actions: a PickPlace-G1-v0 runner is built on it as on the task

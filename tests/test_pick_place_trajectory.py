@@ -8,7 +8,7 @@ import torch
 from fakes import FakeEnv
 
 from agile.motion.trajectory_file import PHASES, load_trajectory, resample, sample
-from agile.rl_env.mdp.commands.tracking_command import TrackingCommand, TrackingCommandCfg
+from agile.tasks.pick_place.mdp.tracking_command import TrackingCommand, TrackingCommandCfg
 
 S45, C45 = math.sin(math.pi / 8), math.cos(math.pi / 8)  # half-angles of 45° and 90°
 S90, C90 = math.sin(math.pi / 4), math.cos(math.pi / 4)

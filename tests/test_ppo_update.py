@@ -12,8 +12,8 @@ import torch
 from rsl_rl.algorithms import PPO
 from tensordict import TensorDict
 
-from agile.rl_env.rsl_rl.captured_ppo import CapturedPPO
-from agile.rl_env.rsl_rl.sync_free_ppo import SyncFreePPO
+from agile.rl.algorithms.captured_ppo import CapturedPPO
+from agile.rl.algorithms.sync_free_ppo import SyncFreePPO
 
 NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS = 16, 12, 10, 4
 
@@ -137,7 +137,7 @@ def test_the_sync_free_update_matches_rsl_rls_update_with_symmetry(mirror_loss):
 def test_the_bf16_update_matches_rsl_rls_bf16_update():
     """`algorithm.use_mixed_precision` (the runner setting, bf16 autocast of the forward passes) reaches the update,
     and SyncFreePPO's bf16 update does rsl-rl's: the same losses and weights (to bf16's tolerance) from the same start."""
-    from agile.rl_env.rsl_rl import PpoAlgorithmCfg
+    from agile.rl import PpoAlgorithmCfg
 
     assert "use_mixed_precision" in vars(PpoAlgorithmCfg())
     plain, sync_free = make_algorithm("PPO", 0.01, use_mixed_precision=True), \

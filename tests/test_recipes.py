@@ -22,7 +22,7 @@ def test_recipe_overrides_come_first_and_the_given_ones_win():
                                             "agent.algorithm.desired_kl=0.015"])
     assert args.overrides == [*RECIPES["fast"], "agent.algorithm.desired_kl=0.015"]
     _, agent_cfg, _ = task_setup.load_task(**arguments.task_options(args))
-    assert agent_cfg.algorithm.class_name == "agile.rl_env.rsl_rl.captured_ppo:CapturedPPO"
+    assert agent_cfg.algorithm.class_name == "agile.rl.algorithms.captured_ppo:CapturedPPO"
     assert agent_cfg.algorithm.use_mixed_precision is True and agent_cfg.float32_matmul_precision == "high"
     assert agent_cfg.algorithm.desired_kl == 0.015
 

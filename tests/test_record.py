@@ -129,7 +129,7 @@ def checkpoint(record_env, tmp_path_factory):
     from rsl_rl.runners import OnPolicyRunner
 
     import agile.tasks
-    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+    from agile.rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 
     _, agent_cfg = agile.tasks.load_cfgs("PickPlace-G1-v0")  # the recording task runs PickPlace's policy
     runner = OnPolicyRunner(RslRlVecEnvWrapper(record_env), to_rsl_rl_dict(agent_cfg), log_dir=None, device="cpu")

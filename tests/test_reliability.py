@@ -11,7 +11,7 @@ from commands import FLAT_GROUND
 
 import agile.tasks  # noqa: F401
 from agile.rl_env.mdp import last_action
-from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, flatten_groups
+from agile.rl import RslRlVecEnvWrapper, flatten_groups
 from agile.sim.terrain import TerrainGeneratorCfg, cache_dir, cache_key, load_or_generate_terrain
 from agile.utils.config import ConfigError
 
@@ -171,7 +171,7 @@ def test_a_missing_checkpoint_is_refused_before_anything_is_built(capsys):
     with pytest.raises(SystemExit) as exit_info:
         main(["--task", "Velocity-T1-v0", "--checkpoint", "no/such/model_1.pt"])
     assert exit_info.value.code == 2 and "--checkpoint file not found: no/such/model_1.pt" in capsys.readouterr().err
-    from agile.rl_env.rsl_rl.checkpoints import TRUST_FLAG
+    from agile.rl.checkpoints import TRUST_FLAG
 
     assert arguments.TRUST_FLAG == TRUST_FLAG
 

@@ -11,12 +11,12 @@ import torch
 from rsl_rl.algorithms import PPO
 from tensordict import TensorDict
 
-from agile.rl_env.rsl_rl import PpoAlgorithmCfg, to_rsl_rl_dict
-from agile.rl_env.rsl_rl.entropy_annealing import EntropyAnnealingPPO
-from agile.rl_env.rsl_rl.extended_ppo import extended
-from agile.rl_env.rsl_rl.reward_normalization import STATE_KEY, ReturnVarianceNormalizer, RewardNormalization
-from agile.rl_env.rsl_rl.runner_cfg import RewardNormalizationCfg, with_extensions
-from agile.rl_env.rsl_rl.sync_free_ppo import SyncFreePPO
+from agile.rl import PpoAlgorithmCfg, to_rsl_rl_dict
+from agile.rl.algorithms.entropy_annealing import EntropyAnnealingPPO
+from agile.rl.algorithms.extended_ppo import extended
+from agile.rl.algorithms.reward_normalization import STATE_KEY, ReturnVarianceNormalizer, RewardNormalization
+from agile.rl.configs import RewardNormalizationCfg, with_extensions
+from agile.rl.algorithms.sync_free_ppo import SyncFreePPO
 from agile.utils.config import ConfigError
 from ppo_fakes import ppo_algorithm
 
@@ -85,8 +85,8 @@ def rollout(algorithm, generator: torch.Generator) -> list[torch.Tensor]:
 
 @pytest.mark.parametrize("base", [PPO, EntropyAnnealingPPO, SyncFreePPO])
 def test_any_ppo_class_stores_scaled_rewards(base):
-    path = {PPO: "PPO", EntropyAnnealingPPO: "agile.rl_env.rsl_rl.entropy_annealing:EntropyAnnealingPPO",
-            SyncFreePPO: "agile.rl_env.rsl_rl.sync_free_ppo:SyncFreePPO"}[base]
+    path = {PPO: "PPO", EntropyAnnealingPPO: "agile.rl.algorithms.entropy_annealing:EntropyAnnealingPPO",
+            SyncFreePPO: "agile.rl.algorithms.sync_free_ppo:SyncFreePPO"}[base]
     algorithm = make_algorithm(path, {"decay": 0.5, "return_scale_decay": None})
     assert isinstance(algorithm, base) and isinstance(algorithm, RewardNormalization)
     assert type(algorithm).__name__ == f"RewardNormalization{base.__name__}"
@@ -149,7 +149,7 @@ def test_the_algorithm_config_has_no_normalisation_unless_asked():
 def test_a_resume_without_statistics_into_a_normalising_run_warms_the_critic_up():
     from types import SimpleNamespace
 
-    from agile.rl_env.rsl_rl.reward_normalization import starts_normalizing
+    from agile.rl.algorithms.reward_normalization import starts_normalizing
 
     normalizing_cfg = SimpleNamespace(algorithm=PpoAlgorithmCfg(reward_normalization=RewardNormalizationCfg()))
     plain_cfg = SimpleNamespace(algorithm=PpoAlgorithmCfg())

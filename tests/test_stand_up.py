@@ -13,8 +13,8 @@ import torch
 from commands import run_command
 
 import agile.tasks
-from agile.rl_env.fallen_states import STATE_FIELDS, FallenStateDatasetCfg, cache
-from agile.rl_env.fallen_states.dataset import cache_inputs
+from agile.tasks.stand_up.fallen_states import STATE_FIELDS, FallenStateDatasetCfg, cache
+from agile.tasks.stand_up.fallen_states.dataset import cache_inputs
 
 TASK = "StandUp-T1-v0"
 ROOT = Path(__file__).resolve().parents[1]
@@ -190,7 +190,7 @@ def test_a_seeded_build_draws_the_same_numbers_whether_it_collects_or_loads(tmp_
 def test_the_built_env_then_one_ppo_iteration(stand_up_env, tmp_path):
     from rsl_rl.runners import OnPolicyRunner
 
-    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+    from agile.rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 
     env, agent_cfg, _, _ = stand_up_env
     agent_cfg.num_steps_per_env = 4
@@ -213,7 +213,7 @@ def test_play_validate_fallen_states(tmp_path):  # also: the collection's progre
 
 
 def test_a_row_without_states_draws_from_the_nearest_row_with_some():
-    from agile.rl_env.fallen_states import FallenStates
+    from agile.tasks.stand_up.fallen_states import FallenStates
 
     levels = torch.tensor([1, 1, 3])  # rows 0 and 2 lost every state (not at rest)
     tensors = {name: torch.zeros(3, 1) for name in STATE_FIELDS}

@@ -7,7 +7,7 @@ from tensordict import TensorDict
 
 import agile.tasks  # noqa: F401
 from agile.rl_env.mdp.symmetry import _swap_side, group_mirror, lr_mirror
-from agile.rl_env.rsl_rl import flatten_groups
+from agile.rl import flatten_groups
 
 TASKS = ["Velocity-T1-v0", "Velocity-G1-History-v0"]
 

@@ -6,10 +6,10 @@ import torch
 from rsl_rl.utils.logger import Logger
 from tensordict import TensorDict
 
-from agile.rl_env.rsl_rl.checkpoints import CheckpointingRunner
-from agile.rl_env.rsl_rl.progress import PlainLogger, ProgressLogger
-from agile.rl_env.rsl_rl.sync_free_logger import SyncFreeLogger
-from agile.rl_env.rsl_rl.vecenv_wrapper import RslRlVecEnvWrapper, defer_nan_check
+from agile.rl.runner import CheckpointingRunner
+from agile.rl.progress import PlainLogger, ProgressLogger
+from agile.rl.logger import SyncFreeLogger
+from agile.rl.vecenv_wrapper import RslRlVecEnvWrapper, defer_nan_check
 
 NUM_ENVS = 3
 
@@ -183,7 +183,7 @@ def test_each_log_stamps_its_iteration_on_the_hosts_clock():
     import io
     import time
 
-    from agile.rl_env.rsl_rl import sync_free_logger
+    from agile.rl import logger as sync_free_logger
 
     made = logger(SyncFreeLogger, 24)
     made.writer = RecordingWriter()

@@ -6,7 +6,7 @@ import torch
 from rsl_rl.runners import OnPolicyRunner
 
 import agile.tasks
-from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, to_rsl_rl_dict
+from agile.rl import RslRlVecEnvWrapper, to_rsl_rl_dict
 
 SMOKE_TASKS = ["Velocity-T1-v0", "Velocity-G1-History-v0", "Velocity-G1-Teacher-v0", "Velocity-Height-G1-Teacher-v0",
                "Velocity-Height-G1-History-v0", "Debug-G1-v0", "Debug-T1-v0", "Debug-G1-Object-v0"]

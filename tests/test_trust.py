@@ -8,7 +8,7 @@ import torch
 from commands import FLAT_GROUND_ARGS, run_command
 from evil_payload import Payload
 
-from agile.rl_env.rsl_rl.checkpoints import UntrustedCheckpointError, load_checkpoint
+from agile.rl.checkpoints import UntrustedCheckpointError, load_checkpoint
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = sorted((ROOT / "agile" / "data" / "policy").glob("*.pt"))

@@ -17,7 +17,7 @@ import torch
 from pettingzoo import AECEnv, ParallelEnv
 
 from agile.marl.env import MultiAgentEnv
-from agile.rl_env.rsl_rl import flatten_groups
+from agile.rl import flatten_groups
 
 
 class ParallelView(ParallelEnv):

@@ -18,7 +18,7 @@ from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
 from agile.marl.env import AgentStep, MultiAgentEnv
-from agile.rl_env.rsl_rl import PpoRunnerCfg, flatten_groups
+from agile.rl import PpoRunnerCfg, flatten_groups
 from agile.utils.config import ConfigError, configclass
 
 TRAINING_MODES = ("normal", "shared", "joint")

@@ -9,8 +9,8 @@ import torch
 
 from agile.marl.env import MultiAgentEnv
 from agile.marl.rsl_rl import GroupVecEnv, MultiAgentRunnerCfg
-from agile.rl_env.rsl_rl import to_rsl_rl_dict
-from agile.rl_env.rsl_rl.checkpoints import CheckpointingRunner
+from agile.rl import to_rsl_rl_dict
+from agile.rl.runner import CheckpointingRunner
 from agile.utils.config import ConfigError
 from agile.utils.heap import heap_frozen
 

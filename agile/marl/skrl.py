@@ -15,7 +15,7 @@ import numpy as np
 import torch
 
 from agile.marl.env import MultiAgentEnv
-from agile.rl_env.rsl_rl import flatten_groups
+from agile.rl import flatten_groups
 from agile.utils.config import ConfigError
 
 

@@ -15,7 +15,7 @@ from agile.errors import AgileError
 from agile.run import task_setup
 
 TRUST_FLAG = "--trust_checkpoint"
-"""`agile.rl_env.rsl_rl.checkpoints.TRUST_FLAG`, named here so that --help does not import the simulator."""
+"""`agile.rl.checkpoints.TRUST_FLAG`, named here so that --help does not import the simulator."""
 CPU_DEFAULT_NUM_ENVS = 4
 """The env count on a CPU when --num_envs is not given (`agile.run.task_setup.CPU_DEFAULT_NUM_ENVS`)."""
 EXIT_USAGE = 2

@@ -120,7 +120,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     import torch
 
     from agile.rl_env import ManagerBasedRLEnv
-    from agile.rl_env.rsl_rl.checkpoints import training_runner
+    from agile.rl.runner import training_runner
 
     flat_raw = flat_raw_physics(env_cfg, device, steps) if env_cfg.scene.terrain is not None else None
     start = time.perf_counter()

@@ -27,7 +27,7 @@ def build_env(task: str, env_cfg, device: str, use_cache: bool = True):
 def collect_fallen_states_anew(env_cfg) -> None:
     """The stand-up tasks' `startup_dataset`: every `reset_from_fallen_dataset` event of `env_cfg` collects its
     dataset instead of loading the cache."""
-    from agile.rl_env.fallen_states import FallenStateDatasetCfg, reset_from_fallen_dataset
+    from agile.tasks.stand_up.fallen_states import FallenStateDatasetCfg, reset_from_fallen_dataset
     from agile.rl_env.managers import EventTerm
 
     for term in vars(env_cfg.events or object()).values():

@@ -7,11 +7,11 @@ LEAPP bundle (NVIDIA's deploy format).
 
 Both model files take the actor's observation groups concatenated, (batch, obs_dim), observation
 normalisation included, and return the mean action. The descriptor lists what builds that input and what
-the output means (see agile/rl_env/rsl_rl/exporter.py). Also run by train.py at the end of training.
+the output means (see agile/export/io_descriptor.py). Also run by train.py at the end of training.
 
 A LEAPP bundle (<Task>.yaml, <Task>.onnx, <Task>_initial_values.safetensors) takes raw robot state and gives joint
 position targets: the observation terms, history, normaliser and action terms are inside the graph, and the last
-action, histories and recurrent state are fed back by LEAPP's runtime (see agile/rl_env/rsl_rl/leapp_bundle.py).
+action, histories and recurrent state are fed back by LEAPP's runtime (see agile/export/leapp_bundle.py).
 Run it in plain MuJoCo with `agile sim2mujoco --bundle <out>/<Task>/<Task>.yaml`.
 """
 
@@ -32,7 +32,9 @@ EXPORT_FORMATS = ("torchscript", "leapp")
 
 def export(task: str, env, agent_cfg, runner, out_dir: str) -> dict:
     """Write the three files; returns their paths."""
-    from agile.rl_env.rsl_rl.exporter import export_policy, io_descriptor, write_io_descriptor
+    from agile.export.io_descriptor import io_descriptor
+    from agile.export.policy_files import export_policy
+    from agile.rl_env.io_descriptor_file import write_io_descriptor
 
     jit_path, onnx_path = export_policy(runner, out_dir)
     descriptor_path = os.path.join(out_dir, "io_descriptor.yaml")
@@ -46,8 +48,8 @@ def export_leapp(env, agent_cfg, runner, out_dir: str) -> dict:
         import leapp  # noqa: F401
     except ImportError:
         raise AgileError("--format leapp needs the leapp package: pip install 'agile[leapp]'")
-    from agile.rl_env.rsl_rl.exporter import io_descriptor
-    from agile.rl_env.rsl_rl.leapp_bundle import UnsupportedPolicyError, write_bundle
+    from agile.export.io_descriptor import io_descriptor
+    from agile.export.leapp_bundle import UnsupportedPolicyError, write_bundle
 
     try:
         return {"leapp": write_bundle(io_descriptor(env, agent_cfg), runner.alg.get_policy().as_onnx(verbose=False),

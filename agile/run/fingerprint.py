@@ -138,7 +138,7 @@ def record(policy: ShippedPolicy, num_envs: int = NUM_ENVS, num_steps: int = NUM
     import torch
 
     import agile.tasks
-    from agile.rl_env.rsl_rl.checkpoints import load_checkpoint
+    from agile.rl.checkpoints import load_checkpoint
     from agile.run.env import build_env
     from agile.run.policy import inference_cfg, load_policy
     from agile.utils.config import apply_overrides

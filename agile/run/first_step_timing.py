@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import time
 
-from agile.rl_env.rsl_rl.vecenv_wrapper import RslRlVecEnvWrapper
+from agile.rl.vecenv_wrapper import RslRlVecEnvWrapper
 
 
 class FirstStepTimingVecEnv(RslRlVecEnvWrapper):

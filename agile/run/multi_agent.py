@@ -72,8 +72,8 @@ def latest_run(log_root: str, experiment: str, groups) -> str:
 def train(args, env_cfg, agent_cfg, device: str) -> tuple[str, str]:
     """Train every agent group (`args`: `agile.run.train.TrainOptions`); (the run's folder, its export folder)."""
     from agile.marl.runner import MultiAgentRunner
-    from agile.rl_env.rsl_rl.checkpoints import restore_runner
-    from agile.rl_env.rsl_rl.progress import show_progress
+    from agile.rl.checkpoints import restore_runner
+    from agile.rl.progress import show_progress
     from agile.utils.config import ConfigError
 
     init_files = group_files(args.init_policy, agent_cfg.groups, "--init_policy")
@@ -116,7 +116,9 @@ def train(args, env_cfg, agent_cfg, device: str) -> tuple[str, str]:
 def export_groups(runner, out_dir: str) -> None:
     """policy.pt and policy.onnx of every group; with the IO descriptor of its (first) agent's robot, except for a
     joint group, whose policy drives several robots."""
-    from agile.rl_env.rsl_rl.exporter import export_policy, io_descriptor, write_io_descriptor
+    from agile.export.io_descriptor import io_descriptor
+    from agile.export.policy_files import export_policy
+    from agile.rl_env.io_descriptor_file import write_io_descriptor
 
     for group, view in runner.views.items():
         group_dir = os.path.join(out_dir, group)
@@ -195,7 +197,7 @@ def evaluate(world, policies: dict, num_slots: int, recorders=(), command_name: 
 def restored_runner(world, agent_cfg, run_dir: str | None, trust: bool):
     """A MultiAgentRunner (no logging) holding every group's newest checkpoint of a training run folder."""
     from agile.marl.runner import MultiAgentRunner
-    from agile.rl_env.rsl_rl.checkpoints import restore_runner
+    from agile.rl.checkpoints import restore_runner
 
     files = run_checkpoints(run_dir, agent_cfg.groups)
     with task_setup.quiet_stdout():

@@ -92,7 +92,7 @@ def with_visual_meshes(env_cfg):
 
 def show_fallen_states(env_cfg, task: str) -> None:
     """--validate_fallen_states: every reset from the fallen-state dataset (no standing share), one per second."""
-    from agile.rl_env.fallen_states import reset_from_fallen_dataset
+    from agile.tasks.stand_up.fallen_states import reset_from_fallen_dataset
     from agile.rl_env.managers import EventTerm
 
     resets = [term for term in vars(env_cfg.events).values()

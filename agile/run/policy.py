@@ -29,11 +29,11 @@ def inference_cfg(env_cfg):
 
 def load_runner(checkpoint: dict, env, agent_cfg, verbose: bool = False):
     """An RSL-RL runner (no logging) holding the models of a checkpoint or of a shipped actor-only file (contents
-    from `agile.rl_env.rsl_rl.checkpoints.load_checkpoint`). `verbose`: let rsl-rl print its models."""
+    from `agile.rl.checkpoints.load_checkpoint`). `verbose`: let rsl-rl print its models."""
     from rsl_rl.runners import OnPolicyRunner
 
-    from agile.rl_env.rsl_rl import RslRlVecEnvWrapper, policy_obs_set, policy_state_key, to_rsl_rl_dict
-    from agile.rl_env.rsl_rl.checkpoints import restore_runner
+    from agile.rl import RslRlVecEnvWrapper, policy_obs_set, policy_state_key, to_rsl_rl_dict
+    from agile.rl.checkpoints import restore_runner
 
     # a PPO checkpoint holds an actor, a distilled one a student: the other kind would load nothing that acts
     if policy_state_key(agent_cfg) not in checkpoint:
@@ -58,7 +58,7 @@ def load_runner(checkpoint: dict, env, agent_cfg, verbose: bool = False):
 
 def load_policy(checkpoint: dict, env, agent_cfg, verbose: bool = False):
     """The deterministic actor of a checkpoint, as a callable on the env's observation TensorDict."""
-    from agile.rl_env.rsl_rl import flatten_groups
+    from agile.rl import flatten_groups
 
     actor = load_runner(checkpoint, env, agent_cfg, verbose).get_inference_policy(device=str(env.device))
 

@@ -33,7 +33,7 @@ from agile.run.mujoco_robot import Robot, build_model, rotate_inverse
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # for agile.assets (robot files) from a checkout
 
-IO_DESCRIPTOR_VERSION = 2  # what agile/rl_env/rsl_rl/exporter.py writes (this script does not import it)
+IO_DESCRIPTOR_VERSION = 2  # what agile/rl_env/io_descriptor_file.py writes (this script does not import it)
 FALL_TILT_RAD = math.radians(60.0)
 FALL_HEIGHT_FRACTION = 0.5  # of the default root height
 

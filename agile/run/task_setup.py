@@ -92,7 +92,7 @@ def load_task(*, task: str, num_envs: int | None = None, device: str | None = No
     checked, and the device (cuda:0 when a GPU is present and `device` is None). `num_envs` None: the task's on a GPU,
     `CPU_DEFAULT_NUM_ENVS` on a CPU. `rnn` ("lstm" or "gru"): a recurrent actor and critic, sized by the overrides."""
     import agile.tasks
-    from agile.rl_env.rsl_rl import make_recurrent
+    from agile.rl import make_recurrent
     from agile.utils.config import apply_overrides
 
     if num_envs is not None and num_envs < 1:
@@ -198,7 +198,7 @@ def make_env(*, task: str, env_cfg, device: str, collect_datasets_anew: bool = F
 def read_checkpoint(path: str, trust: bool = False) -> dict:
     """A checkpoint's contents, loaded on the CPU before the env is built so that a bad file is reported at once.
     `trust`: full unpickling (runs code inside the file), else only tensors and plain containers."""
-    from agile.rl_env.rsl_rl.checkpoints import UnreadableCheckpointError, UntrustedCheckpointError, load_checkpoint
+    from agile.rl.checkpoints import UnreadableCheckpointError, UntrustedCheckpointError, load_checkpoint
 
     if not os.path.isfile(path):
         raise AgileError(f"checkpoint not found: {path}")

@@ -72,7 +72,7 @@ def evaluator(task: str, overrides: list[str], device: str, num_envs: int | None
     import torch
 
     import agile.tasks
-    from agile.rl_env.rsl_rl.checkpoints import load_checkpoint
+    from agile.rl.checkpoints import load_checkpoint
     from agile.run.evaluation import evaluate
     from agile.run.eval_all import disable_interval_events
     from agile.run.policy import inference_cfg, load_policy

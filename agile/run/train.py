@@ -31,7 +31,7 @@ from agile.run.training_start import check_rank_weights, distributed_rank, resto
 
 DEFAULT_LOG_ROOT = os.path.join("logs", "rsl_rl")
 PROGRESS_MODES = ("auto", "bar", "log")
-"""`agile.rl_env.rsl_rl.progress.PROGRESS_MODES`, named here so that --help does not import the simulator."""
+"""`agile.rl.progress.PROGRESS_MODES`, named here so that --help does not import the simulator."""
 LOGGERS = ("tensorboard", "wandb", "neptune")
 MANY_CPU_ENVS = 256
 """Above this env count a CPU training is told that it is slow and how to make it fast."""
@@ -74,7 +74,7 @@ def learn_with_clips(runner, options, env_cfg, device: str, log_dir: str, iterat
     from agile.run.policy import inference_cfg
     from agile.run.recording import VideoRecorder
 
-    from agile.rl_env.rsl_rl import flatten_groups
+    from agile.rl import flatten_groups
 
     record = log_dir is not None  # distributed: the other ranks learn the same chunks and record nothing
     if record:
@@ -213,12 +213,12 @@ def check_options(options: TrainOptions) -> None:
 
 def build_runner(options: TrainOptions, env, agent_cfg, log_dir: str | None):
     """The training runner over `env` (NaN actions injected where asked; on a CPU the first env step is timed)."""
-    from agile.rl_env.rsl_rl.checkpoints import training_runner
-    from agile.rl_env.rsl_rl.progress import show_progress
+    from agile.rl.runner import training_runner
+    from agile.rl.progress import show_progress
 
     wrap = None
     if options.inject_nan_actions is not None:
-        from agile.rl_env.rsl_rl.fault_injection import NanActionVecEnv
+        from agile.rl.fault_injection import NanActionVecEnv
 
         share, every = options.inject_nan_actions
         wrap = partial(NanActionVecEnv, share=share, every_iterations=int(every),
@@ -239,7 +239,7 @@ def build_runner(options: TrainOptions, env, agent_cfg, log_dir: str | None):
 def learn(runner, env_cfg, agent_cfg, device: str, options: TrainOptions, log_dir: str | None, start: dict) -> None:
     """The run's iterations: a critic warm-up where the policy comes from elsewhere (an initial policy, a checkpoint
     trained without reward normalisation), then PPO (in chunks with a clip after each, where asked)."""
-    from agile.rl_env.rsl_rl.reward_normalization import starts_normalizing
+    from agile.rl.algorithms.reward_normalization import starts_normalizing
 
     iterations, warmup = agent_cfg.max_iterations, 0
     rescaled = starts_normalizing(agent_cfg, start["resume_contents"])

@@ -16,7 +16,7 @@ if typing.TYPE_CHECKING:
 
 def distributed_rank(options: TrainOptions):
     """(this process's rank when torchrun started it (with --distributed), else None; the device it trains on)."""
-    from agile.rl_env.rsl_rl.distributed import make_current, rank_device, rank_from_env
+    from agile.rl.distributed import make_current, rank_device, rank_from_env
 
     rank = rank_from_env()
     if rank is None:
@@ -40,8 +40,8 @@ def check_rank_weights(runner, rank) -> None:
     all-reduces every gradient, so a difference means the ranks fell out of step)."""
     import torch
 
-    from agile.rl_env.rsl_rl.captured_ppo import CapturedPPO
-    from agile.rl_env.rsl_rl.distributed import gather_digests, weights_digest
+    from agile.rl.algorithms.captured_ppo import CapturedPPO
+    from agile.rl.distributed import gather_digests, weights_digest
 
     digest = weights_digest(runner.alg.save())
     print(f"[agile] rank {rank.rank}: weights sha256 {digest}", flush=True)
@@ -112,7 +112,7 @@ def shipped_init_policy(task: str, agent_cfg) -> str | None:
 def distillation_teacher(options: TrainOptions, agent_cfg, resuming: bool) -> str | None:
     """The teacher file of a distillation run (None for PPO, and when resuming: the checkpoint holds it)."""
     import agile.tasks
-    from agile.rl_env.rsl_rl import is_distillation
+    from agile.rl import is_distillation
 
     if not is_distillation(agent_cfg):
         if options.teacher:
@@ -132,7 +132,7 @@ def distillation_teacher(options: TrainOptions, agent_cfg, resuming: bool) -> st
 def starting_point(options: TrainOptions, agent_cfg) -> dict:
     """Where a single-agent run starts, each file read before the env is built (one that is missing or would run
     code is refused at once): {"resume_path", "resume_contents", "init_policy", "init_contents", "teacher"}."""
-    from agile.rl_env.rsl_rl import policy_state_key
+    from agile.rl import policy_state_key
 
     if len(options.init_policy) > 1:
         raise AgileError(f"init_policy takes one checkpoint for a single-agent task, got {list(options.init_policy)}")
@@ -164,9 +164,9 @@ def starting_point(options: TrainOptions, agent_cfg) -> dict:
 def restore_start(runner, env, agent_cfg, start: dict, options: TrainOptions, log_dir: str | None) -> None:
     """Put the runner (and the env's training state) where the run starts: a checkpoint resumed, a teacher loaded,
     an initial policy's actor."""
-    from agile.rl_env.rsl_rl import policy_obs_set, policy_state_key
-    from agile.rl_env.rsl_rl.checkpoints import restore_runner
-    from agile.rl_env.rsl_rl.distillation import load_teacher
+    from agile.rl import policy_obs_set, policy_state_key
+    from agile.rl.checkpoints import restore_runner
+    from agile.rl.algorithms.distillation import load_teacher
 
     if start["resume_path"]:
         print(f"[agile] resuming from {start['resume_path']}")

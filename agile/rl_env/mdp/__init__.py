@@ -10,13 +10,11 @@ from agile.rl_env.mdp.events import *  # noqa: F401,F403
 from agile.rl_env.mdp.observations import *  # noqa: F401,F403
 from agile.rl_env.mdp.rewards import *  # noqa: F401,F403
 from agile.rl_env.mdp.terminations import *  # noqa: F401,F403
-from agile.rl_env.fallen_states.reset import *  # noqa: F401,F403
 from agile.rl_env.mdp.metrics import *  # noqa: F401,F403
 
-from agile.rl_env.fallen_states import reset as _reset
 from agile.rl_env.mdp import (actions as _actions, commands as _commands, curriculums as _curriculums,  # noqa: E402
                               events as _events, metrics as _metrics, observations as _observations,
                               rewards as _rewards, terminations as _terminations)
 
 __all__ = sorted({name for module in (_actions, _commands, _curriculums, _events, _observations, _rewards,
-                                      _terminations, _reset, _metrics) for name in module.__all__})
+                                      _terminations, _metrics) for name in module.__all__})

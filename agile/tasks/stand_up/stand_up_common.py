@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from agile.rl_env.fallen_states import FallenStateDatasetCfg
+from agile.tasks.stand_up.fallen_states import FallenStateDatasetCfg
 from agile.rl_env.managers import EventTerm
 from agile.tasks.stand_up import mdp
 

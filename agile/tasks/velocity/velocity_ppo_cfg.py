@@ -1,6 +1,6 @@
 """PPO settings shared by AGILE's velocity tasks (`T1VelocityPpoRunnerCfg`, `G1VelocityPpoRunnerCfg`)."""
 
-from agile.rl_env.rsl_rl import DistributionCfg, MlpModelCfg, PpoAlgorithmCfg, PpoRunnerCfg
+from agile.rl import DistributionCfg, MlpModelCfg, PpoAlgorithmCfg, PpoRunnerCfg
 
 
 MIRROR_AUGMENTATION = {"use_data_augmentation": True, "use_mirror_loss": False, "mirror_loss_coeff": 0.0,

@@ -2,7 +2,7 @@
 
 The task's policy outputs a 4-D lower-body command [vx, vy, wz, base height]; this term clips it to the ranges
 the task allows, rebuilds the frozen policy's own observation from the robot (term by term, as the policy's IO
-descriptor lists them: `agile/rl_env/rsl_rl/exporter.py`), runs the TorchScript policy with no gradient, on the
+descriptor lists them: `agile/export/io_descriptor.py`), runs the TorchScript policy with no gradient, on the
 env's device, and writes its leg targets. Nothing leaves the device, so the whole step stays capturable.
 
 The observation is built as the policy was trained, not as the current task's robot defines it: joint
@@ -40,7 +40,7 @@ def shipped_frozen_policy(task: str = DEFAULT_FROZEN_POLICY) -> tuple[str, str]:
 
 
 def _read_descriptor(path: str) -> dict:
-    from agile.rl_env.rsl_rl.exporter import read_io_descriptor
+    from agile.rl_env.io_descriptor_file import read_io_descriptor
 
     return read_io_descriptor(path)
 

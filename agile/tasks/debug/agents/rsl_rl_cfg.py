@@ -1,7 +1,7 @@
 """AGILE `DummyPpoRunnerCfg`: the debug tasks are run by hand; a runner exists so that every script (and the
 smoke tests) can build them, and its learning rate of 0 leaves the policy as initialised."""
 
-from agile.rl_env.rsl_rl import DistributionCfg, MlpModelCfg, PpoAlgorithmCfg, PpoRunnerCfg
+from agile.rl import DistributionCfg, MlpModelCfg, PpoAlgorithmCfg, PpoRunnerCfg
 
 
 def debug_ppo_runner_cfg() -> PpoRunnerCfg:

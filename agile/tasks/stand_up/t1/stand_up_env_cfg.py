@@ -1,7 +1,7 @@
 """StandUp-T1-v0: Booster T1 stands up from any fall, with full-body control, on rough terrain.
 
 AGILE `T1StandUpEnvCfg` (FEB26, agile_tasks.md 2.4). Episodes start from a dataset of fallen states collected
-when the env is built, on every terrain row (by the reset event, `agile.rl_env.fallen_states`), a tenth
+when the env is built, on every terrain row (by the reset event, `agile.tasks.stand_up.fallen_states`), a tenth
 standing; a lift force on the head helps early on (from 3 s into an episode, towards 0.65 m) and is removed by a
 curriculum as the robots learn to stand by themselves. No command: the task is to get up and stay up; its metric
 terms report the share of episodes that end by time-out standing (eval.py, docs/stand_up.md "Evaluate").
@@ -17,7 +17,7 @@ from agile.sim.terrain import STAND_UP_ROUGH_TERRAIN_CFG
 from agile.tasks.stand_up import mdp
 from agile.tasks.stand_up.stand_up_common import STAND_UP_PUSH_INTERVAL_S, STAND_UP_PUSH_VELOCITY, fallen_state_reset
 from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, velocity_events_cfg,
-                                                   velocity_scene_cfg, velocity_sim_cfg)
+                                                  velocity_scene_cfg, velocity_sim_cfg)
 from agile.utils.config import configclass
 
 STANDING_HEIGHT_M = 0.65

@@ -17,12 +17,11 @@ from agile.rl_env import ManagerBasedRLEnvCfg
 from agile.rl_env.managers import CurrTerm, DoneTerm, RewTerm, SceneEntityCfg, Unoise
 from agile.tasks.velocity import mdp
 from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, VelocityEventsCfg,
-                                                   random_upper_body_action_cfg, uniform_root_reset, velocity_events_cfg,
-                                                   velocity_sim_cfg)
-from agile.tasks.velocity_height.g1.velocity_height_env_cfg import (COMMAND, FEET, FEET_CONTACT, FOOT_BODIES, LEGS,
-                                                                     STANDING_HEIGHT_M, TRUNK_CONTACT_BODIES,
-                                                                     PrivilegedCriticObsCfg, PrivilegedPolicyObsCfg,
-                                                                     velocity_height_scene_cfg)
+                                                  random_upper_body_action_cfg, uniform_root_reset, velocity_events_cfg,
+                                                  velocity_sim_cfg)
+from agile.tasks.velocity.g1.velocity_g1_common import (COMMAND, FEET, FEET_CONTACT, FOOT_BODIES, LEGS, STANDING_HEIGHT_M,
+                                                        TRUNK_CONTACT_BODIES, PrivilegedCriticObsCfg,
+                                                        PrivilegedPolicyObsCfg, velocity_height_scene_cfg)
 from agile.utils.config import configclass
 
 TORSO = SceneEntityCfg("robot", body_names="torso_link")

@@ -18,53 +18,23 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from agile.assets.unitree_g1 import ACTION_SCALE, LOWER_BODY_JOINTS, g1_armature_actuators, g1_robot_cfg
+from agile.assets.unitree_g1 import ACTION_SCALE, LOWER_BODY_JOINTS
 from agile.rl_env import ManagerBasedRLEnvCfg
-from agile.rl_env.managers import CurrTerm, DoneTerm, ObsGroup, ObsTerm, RewTerm, SceneEntityCfg, Unoise
-from agile.sim.scene_cfg import HeightScannerCfg, SceneCfg
-from agile.sim.terrain import LESS_ROUGH_TERRAIN_CFG
+from agile.rl_env.managers import CurrTerm, DoneTerm, RewTerm, SceneEntityCfg
 from agile.tasks.velocity import mdp
 from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, VelocityEventsCfg,
-                                                   uniform_root_reset, velocity_events_cfg, velocity_scene_cfg,
-                                                   velocity_sim_cfg)
+                                                  uniform_root_reset, velocity_events_cfg, velocity_sim_cfg)
+from agile.tasks.velocity.g1.velocity_g1_common import (COMMAND, FEET, FEET_CONTACT, LEGS, STANDING_HEIGHT_M,
+                                                        TRUNK_CONTACT_BODIES, PrivilegedCriticObsCfg,
+                                                        PrivilegedPolicyObsCfg, velocity_height_scene_cfg)
 from agile.utils.config import configclass
 
-COMMAND = "base_velocity"
-LEGS = SceneEntityCfg("robot", joint_names=LOWER_BODY_JOINTS)
-"""The 12 joints the policy drives: hips, knees, ankles."""
 LEG_ACTION_SCALE = {expr: scale for expr, scale in ACTION_SCALE.items() if "hip" in expr or "knee" in expr
                     or "ankle" in expr}
 """AGILE `G1_ACTION_SCALE_LOWER`: 0.25·effort/kp per joint (hip pitch/yaw 0.548, hip roll/knee 0.351, ankles 0.439)."""
-FOOT_BODIES = ["left_ankle_roll_link", "right_ankle_roll_link"]
-FEET = SceneEntityCfg("robot", body_names=FOOT_BODIES, preserve_order=True)
-FEET_CONTACT = SceneEntityCfg(CONTACT_SENSOR, body_names=FOOT_BODIES, preserve_order=True)
-TRUNK_CONTACT_BODIES = ["torso_link", "pelvis", ".*_hip_.*_link", ".*_knee_link"]
-LEFT_FOOT_SCANNER, RIGHT_FOOT_SCANNER = "height_scanner_left_foot", "height_scanner_right_foot"
-STANDING_HEIGHT_M = 0.72
-"""G1's pelvis height standing (AGILE `DEFAULT_PELVIS_HEIGHT`): the harness target and the walking height."""
 RAW_ACTION_CLIP = 6.0
 """AGILE clips the raw leg actions to ±6 (the action scale turns 1 into a quarter of the effort limit's PD offset, so
 ±6 spans every reachable target)."""
-
-
-# -- scene ---------------------------------------------------------------------------------------------
-
-def foot_height_scanner_cfg(foot_body: str) -> HeightScannerCfg:
-    """AGILE: a 0.3 × 0.2 m grid of rays every 5 cm (7 × 5) centred 5 cm ahead of the ankle roll link."""
-    return HeightScannerCfg(entity="robot", body_name=foot_body, offset_xy_m=(0.05, 0.0), size_m=(0.3, 0.2),
-                            resolution_m=0.05)
-
-
-def velocity_height_scene_cfg(actuators: dict | None = None) -> SceneCfg:
-    """The G1 (FEB26 teacher: armature-derived gains, delayed implicit PD on legs and feet) on the less-rough
-    terrain, a contact sensor on the feet and on every body whose contact ends an episode, the base-height ray
-    and the foot scans."""
-    return velocity_scene_cfg(
-        g1_robot_cfg(g1_armature_actuators() if actuators is None else actuators), LESS_ROUGH_TERRAIN_CFG,
-        base_body="pelvis", sensed_bodies=[*TRUNK_CONTACT_BODIES, *FOOT_BODIES],
-        ground_friction=0.4,  # the bottom of this task's robot friction range (see velocity_scene_cfg)
-        extra_height_scanners={LEFT_FOOT_SCANNER: foot_height_scanner_cfg(FOOT_BODIES[0]),
-                               RIGHT_FOOT_SCANNER: foot_height_scanner_cfg(FOOT_BODIES[1])})
 
 
 # -- commands ------------------------------------------------------------------------------------------
@@ -109,43 +79,10 @@ class ActionsCfg:
 
 # -- observations --------------------------------------------------------------------------------------
 
-@configclass
-class PrivilegedPolicyObsCfg(ObsGroup):
-    """AGILE `PrivilegedVelocityPolicyCfg`: noisy, one tensor per term, no history; sees its base velocity."""
-
-    concatenate_terms = False
-    enable_corruption = True
-    velocity_height_commands = ObsTerm(func=mdp.generated_commands, params={"command_name": COMMAND})
-    base_lin_vel = ObsTerm(func=mdp.base_lin_vel, noise=Unoise(-0.1, 0.1))
-    base_ang_vel = ObsTerm(func=mdp.base_ang_vel, noise=Unoise(-0.2, 0.2))
-    projected_gravity = ObsTerm(func=mdp.projected_gravity, noise=Unoise(-0.01, 0.01))
-    joint_pos = ObsTerm(func=mdp.joint_pos_rel, noise=Unoise(-0.01, 0.01))
-    joint_vel = ObsTerm(func=mdp.joint_vel_rel, scale=0.1, noise=Unoise(-1.5, 1.5))
-    actions = ObsTerm(func=mdp.last_action, clip=(-10.0, 10.0))
-
-
 def student_policy_obs_cfg(history_length: int | None = None) -> PrivilegedPolicyObsCfg:
     """AGILE `StudentVelocityPolicyCfg`: the privileged policy group without the base linear velocity, which
     the robot does not measure; `history_length` steps of it (None: the current step only)."""
     return dataclasses.replace(PrivilegedPolicyObsCfg(), base_lin_vel=None, history_length=history_length)
-
-
-@configclass
-class PrivilegedCriticObsCfg(ObsGroup):
-    """AGILE `PrivilegedVelocityCriticCfg`: noise-free, plus the base height and the terrain under the feet."""
-
-    concatenate_terms = False
-    velocity_height_commands = ObsTerm(func=mdp.generated_commands, params={"command_name": COMMAND})
-    base_lin_vel = ObsTerm(func=mdp.base_lin_vel)
-    base_ang_vel = ObsTerm(func=mdp.base_ang_vel)
-    projected_gravity = ObsTerm(func=mdp.projected_gravity)
-    joint_pos = ObsTerm(func=mdp.joint_pos_rel)
-    joint_vel = ObsTerm(func=mdp.joint_vel_rel, scale=0.1)
-    actions = ObsTerm(func=mdp.last_action, clip=(-10.0, 10.0))
-    base_height = ObsTerm(func=mdp.base_height_from_sensor, params={"sensor_name": BASE_HEIGHT_SENSOR},
-                          clip=(-10.0, 10.0))
-    height_scan_feet = ObsTerm(func=mdp.height_scan_feet, clip=(-1.0, 1.0),
-                               params={"left_sensor_name": LEFT_FOOT_SCANNER, "right_sensor_name": RIGHT_FOOT_SCANNER})
 
 
 @configclass

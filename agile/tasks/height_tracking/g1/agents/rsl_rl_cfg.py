@@ -1,6 +1,6 @@
 """AGILE V1.3 HeightTracking-G1 runner: the velocity runner with gamma 0.995 and the stand-up runner's entropy."""
 
-from agile.rl_env.rsl_rl import PpoRunnerCfg
+from agile.rl import PpoRunnerCfg
 from agile.tasks.velocity.velocity_ppo_cfg import velocity_ppo_runner_cfg
 
 
@@ -13,5 +13,5 @@ def g1_height_tracking_ppo_runner_cfg() -> PpoRunnerCfg:
     # `cfg.algorithm`, AGILE's settings) but off here: from the 19,000 resume point they drifted as the run without
     # them did (docs/stand_up.md, twenty-fourth session), and the shipped policy trained without them.
     # SyncFreePPO is rsl-rl's PPO update, the same math.
-    cfg.algorithm.class_name = "agile.rl_env.rsl_rl.sync_free_ppo:SyncFreePPO"
+    cfg.algorithm.class_name = "agile.rl.algorithms.sync_free_ppo:SyncFreePPO"
     return cfg

@@ -3,7 +3,7 @@
 AGILE's runner also normalises rewards (0.999) and adds an L2C2 smoothness loss (1.0 / 0.1); rsl-rl-lib 5.5.1 has
 neither, and agile does not add them: this runner trains without (docs/motion_tracking.md)."""
 
-from agile.rl_env.rsl_rl import DistributionCfg, MlpModelCfg, PpoAlgorithmCfg, PpoRunnerCfg
+from agile.rl import DistributionCfg, MlpModelCfg, PpoAlgorithmCfg, PpoRunnerCfg
 
 
 def g1_motion_tracking_ppo_runner_cfg() -> PpoRunnerCfg:

@@ -2,8 +2,8 @@
 group, entropy 0.005 annealed (from progress 0.1, i.e. iteration 2,000 of 20,000, once the episodes last 30% of
 their length on average: x0.9998 per iteration, down to 0.001), observations normalised."""
 
-from agile.rl_env.rsl_rl import (AnnealedPpoAlgorithmCfg, DistributionCfg, EntropyAnnealingCfg, MlpModelCfg,
-                                 PpoRunnerCfg)
+from agile.rl import (AnnealedPpoAlgorithmCfg, DistributionCfg, EntropyAnnealingCfg, MlpModelCfg,
+                      PpoRunnerCfg)
 
 
 def g1_pick_place_ppo_runner_cfg() -> PpoRunnerCfg:

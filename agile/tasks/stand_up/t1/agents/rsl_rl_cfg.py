@@ -1,6 +1,6 @@
 """AGILE `T1StandUpPpoRunnerCfg`: the velocity runner with 100k iterations, entropy 0.0025 and gamma 0.995."""
 
-from agile.rl_env.rsl_rl import PpoRunnerCfg
+from agile.rl import PpoRunnerCfg
 from agile.tasks.velocity.velocity_ppo_cfg import velocity_ppo_runner_cfg
 
 

@@ -1,6 +1,6 @@
 """AGILE `G1VelocityPpoRunnerCfg` (as T1's, 50k iterations), and its G1 velocity teacher's."""
 
-from agile.rl_env.rsl_rl import PpoRunnerCfg
+from agile.rl import PpoRunnerCfg
 from agile.tasks.velocity.velocity_ppo_cfg import velocity_ppo_runner_cfg
 
 

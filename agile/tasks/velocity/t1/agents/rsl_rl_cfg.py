@@ -1,6 +1,6 @@
 """AGILE `T1VelocityPpoRunnerCfg`."""
 
-from agile.rl_env.rsl_rl import PpoRunnerCfg
+from agile.rl import PpoRunnerCfg
 from agile.tasks.velocity.velocity_ppo_cfg import velocity_ppo_runner_cfg
 
 

@@ -1,8 +1,8 @@
 """AGILE's Velocity-Height-G1 runners: the privileged teacher by PPO, two students distilled from it (§5), and
 the history policy trained by PPO directly."""
 
-from agile.rl_env.rsl_rl import (DistillationAlgorithmCfg, DistillationRunnerCfg, DistributionCfg, MlpModelCfg,
-                                 PpoRunnerCfg, RnnModelCfg)
+from agile.rl import (DistillationAlgorithmCfg, DistillationRunnerCfg, DistributionCfg, MlpModelCfg,
+                      PpoRunnerCfg, RnnModelCfg)
 from agile.tasks.velocity.velocity_ppo_cfg import velocity_ppo_runner_cfg
 
 TEACHER_TASK = "Velocity-Height-G1-Teacher-v0"

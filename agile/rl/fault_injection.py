@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import torch
 
-from agile.rl_env.rsl_rl.vecenv_wrapper import RslRlVecEnvWrapper
+from agile.rl.vecenv_wrapper import RslRlVecEnvWrapper
 
 
 class NanActionVecEnv(RslRlVecEnvWrapper):

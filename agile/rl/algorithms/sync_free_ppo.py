@@ -8,7 +8,7 @@ updates in place (`torch.where`), Adam takes it as a tensor (fused Adam), and th
 read once at the end. The math is rsl-rl's: `tests/test_ppo_update.py` checks that losses, learning rate and
 parameters after an update match the plain update.
 
-Select it with `agent.algorithm.class_name=agile.rl_env.rsl_rl.sync_free_ppo:SyncFreePPO` (feed-forward actor and
+Select it with `agent.algorithm.class_name=agile.rl.algorithms.sync_free_ppo:SyncFreePPO` (feed-forward actor and
 critic, no RND; recurrent models and RND are refused).
 """
 

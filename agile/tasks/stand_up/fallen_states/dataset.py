@@ -20,7 +20,7 @@ from pathlib import Path
 import torch
 from tqdm import tqdm
 
-from agile.rl_env.fallen_states import cache
+from agile.tasks.stand_up.fallen_states import cache
 from agile.utils.config import configclass, to_dict
 from agile.utils.math import quat_from_euler_xyz, quat_mul
 

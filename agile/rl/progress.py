@@ -17,7 +17,7 @@ import statistics
 from rsl_rl.utils.logger import Logger
 from tqdm import tqdm
 
-from agile.rl_env.rsl_rl.sync_free_logger import SyncFreeLogger, rebuilt_logger
+from agile.rl.logger import SyncFreeLogger, rebuilt_logger
 
 PROGRESS_MODES = ("auto", "bar", "log")
 """bar: the progress line; log: rsl-rl's block every iteration (log files); auto: bar on a terminal, else log."""

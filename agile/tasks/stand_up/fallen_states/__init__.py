@@ -3,9 +3,9 @@ event that makes it (`reset_from_fallen_dataset.prepare`) and starts episodes fr
 
 from __future__ import annotations
 
-from agile.rl_env.fallen_states.dataset import (STATE_FIELDS, FallenStateDatasetCfg, FallenStates,
-                                                collect_fallen_states, load_or_collect)
-from agile.rl_env.fallen_states.reset import reset_from_fallen_dataset
+from agile.tasks.stand_up.fallen_states.dataset import (STATE_FIELDS, FallenStateDatasetCfg, FallenStates,
+                                                        collect_fallen_states, load_or_collect)
+from agile.tasks.stand_up.fallen_states.reset import reset_from_fallen_dataset
 
 __all__ = ["STATE_FIELDS", "FallenStateDatasetCfg", "FallenStates", "collect_fallen_states", "load_or_collect",
            "reset_from_fallen_dataset"]

@@ -6,7 +6,7 @@ import math
 
 import torch
 
-from agile.rl_env.fallen_states.dataset import FallenStateDatasetCfg, FallenStates, load_or_collect
+from agile.tasks.stand_up.fallen_states.dataset import FallenStateDatasetCfg, FallenStates, load_or_collect
 from agile.rl_env.managers import ManagerTermBase, SceneEntityCfg
 from agile.utils.math import quat_from_euler_xyz, quat_mul
 

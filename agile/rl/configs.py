@@ -5,12 +5,13 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import field
 
+from agile.rl.compat import current_name
 from agile.utils.config import ConfigError, configclass, to_dict
 
 
 @configclass
 class DistributionCfg:
-    class_name: str = "agile.rl_env.rsl_rl.distribution:SyncFreeGaussianDistribution"
+    class_name: str = "agile.rl.distribution:SyncFreeGaussianDistribution"
     """rsl-rl's GaussianDistribution, sampled without a host synchronisation (the same draws)."""
     init_std: float = 1.0
     std_type: str = "scalar"
@@ -53,7 +54,7 @@ def checked_cfg(cls, values: dict, name: str):
 
 @configclass
 class RewardNormalizationCfg:
-    """AGILE's `reward_normalization_cfg` (its defaults): see `agile.rl_env.rsl_rl.reward_normalization`."""
+    """AGILE's `reward_normalization_cfg` (its defaults): see `agile.rl.algorithms.reward_normalization`."""
 
     decay: float = 0.999
     """Per env step, of the running mean and variance of one step's rewards."""
@@ -77,7 +78,8 @@ class RewardNormalizationCfg:
 
 @configclass
 class L2C2Cfg:
-    """AGILE's `l2c2_cfg` (its HeightTracking, PickPlace and G1 runners: 1.0 and 0.1): see `agile.rl_env.rsl_rl.l2c2`."""
+    """AGILE's `l2c2_cfg` (its HeightTracking, PickPlace and G1 runners: 1.0 and 0.1): see
+    `agile.rl.algorithms.l2c2`."""
 
     lambda_actor: float = 1.0
     lambda_critic: float = 0.1
@@ -110,16 +112,16 @@ class PpoAlgorithmCfg:
     """RSL-RL symmetry extension, e.g. {"use_data_augmentation": True, "use_mirror_loss": False,
     "mirror_loss_coeff": 0.0, "data_augmentation_func": "agile.rl_env.mdp.symmetry:lr_mirror"}."""
     reward_normalization: RewardNormalizationCfg | None = None
-    """AGILE's reward normalisation (`agile.rl_env.rsl_rl.reward_normalization`): the stored rewards scaled towards
+    """AGILE's reward normalisation (`agile.rl.algorithms.reward_normalization`): the stored rewards scaled towards
     unit-variance returns. None: raw rewards (rsl-rl's PPO)."""
     l2c2: L2C2Cfg | None = None
-    """AGILE's L2C2 smoothness term (`agile.rl_env.rsl_rl.l2c2`; needs class_name SyncFreePPO or CapturedPPO). None:
+    """AGILE's L2C2 smoothness term (`agile.rl.algorithms.l2c2`; needs class_name SyncFreePPO or CapturedPPO). None:
     none."""
 
 
 @configclass
 class EntropyAnnealingCfg:
-    """AGILE's entropy-coefficient annealing (`agile.rl_env.rsl_rl.entropy_annealing`): from `start_iteration` on,
+    """AGILE's entropy-coefficient annealing (`agile.rl.algorithms.entropy_annealing`): from `start_iteration` on,
     each iteration whose ended episodes lasted on average more than `min_episode_length_share` of the episode
     length multiplies the coefficient by `decay_per_iteration`, down to `min_entropy_coef`. AGILE states the start
     as a share of its runner's max_iterations; here it is the iteration itself, so that a resumed run (whose
@@ -147,7 +149,7 @@ class EntropyAnnealingCfg:
 class AnnealedPpoAlgorithmCfg(PpoAlgorithmCfg):
     """PPO with AGILE's entropy-coefficient annealing."""
 
-    class_name: str = "agile.rl_env.rsl_rl.entropy_annealing:EntropyAnnealingPPO"
+    class_name: str = "agile.rl.algorithms.entropy_annealing:EntropyAnnealingPPO"
     entropy_annealing: EntropyAnnealingCfg = field(default_factory=EntropyAnnealingCfg)
 
 
@@ -230,7 +232,7 @@ class DistillationAlgorithmCfg:
     """rsl-rl's Distillation (DAgger-style behaviour cloning of a teacher's actions), through agile's subclass
     that adds an optional left-right mirror loss (rsl-rl refuses its symmetry extension for distillation)."""
 
-    class_name: str = "agile.rl_env.rsl_rl.distillation:Distillation"
+    class_name: str = "agile.rl.algorithms.distillation:Distillation"
     num_learning_epochs: int = 5
     gradient_length: int = 15
     """Steps of the rollout between gradient steps (truncated backpropagation through time for an RNN)."""
@@ -285,8 +287,8 @@ RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "teacher_task",
                     "critic_warmup_iterations", "critic_warmup_learning_rate", "float32_matmul_precision")
 
 
-EXTENSIONS = {"reward_normalization": (RewardNormalizationCfg, "agile.rl_env.rsl_rl.reward_normalization:RewardNormalization"),
-              "l2c2": (L2C2Cfg, "agile.rl_env.rsl_rl.l2c2:L2C2")}
+EXTENSIONS = {"reward_normalization": (RewardNormalizationCfg, "agile.rl.algorithms.reward_normalization:RewardNormalization"),
+              "l2c2": (L2C2Cfg, "agile.rl.algorithms.l2c2:L2C2")}
 """The PPO settings that add a mixin in front of the configured class: key -> (its config, the mixin), outermost
 first."""
 
@@ -297,7 +299,7 @@ def with_extensions(algorithm: dict) -> None:
     takes no such argument). A bad field is named here, before any runner is built."""
     from rsl_rl.utils import resolve_callable
 
-    from agile.rl_env.rsl_rl.extended_ppo import extended
+    from agile.rl.algorithms.extended_ppo import extended
 
     mixins = []
     for key, (cfg_class, mixin) in EXTENSIONS.items():
@@ -331,8 +333,12 @@ def to_rsl_rl_dict(cfg: RunnerCfg) -> dict:
     d = to_dict(cfg)
     for key in RUNNER_ONLY_KEYS:
         d.pop(key, None)
+    d["algorithm"]["class_name"] = current_name(d["algorithm"]["class_name"])
     with_extensions(d["algorithm"])
     for model in ("student", "teacher") if is_distillation(cfg) else ("actor", "critic"):
+        d[model]["class_name"] = current_name(d[model]["class_name"])
         if d[model].get("distribution_cfg") is None:
             d[model].pop("distribution_cfg", None)
+        else:
+            d[model]["distribution_cfg"]["class_name"] = current_name(d[model]["distribution_cfg"]["class_name"])
     return d

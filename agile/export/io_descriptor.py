@@ -1,4 +1,5 @@
-"""Policy export: TorchScript and ONNX (observation normalisation folded in) plus an IO descriptor.
+"""The IO descriptor of a trained policy, built from its env and agent config (the file's format, version, reading and
+writing: `agile.rl_env.io_descriptor_file`, which the frozen-policy action term reads too).
 
 The IO descriptor is everything a deployment (or `scripts/sim2mujoco.py`) needs to rebuild the policy's
 inputs and apply its outputs without this framework: joints in policy order, defaults, action scale,
@@ -10,22 +11,16 @@ from __future__ import annotations
 
 import os
 
-import torch
-import yaml
-
 from agile.rl_env.managers import ObsGroup, ObsTerm, SceneEntityCfg
 from agile.rl_env.managers.manager_base import collect_terms
-from agile.rl_env.rsl_rl.runner_cfg import RnnModelCfg, policy_model_cfg, policy_obs_set
+from agile.rl.configs import RnnModelCfg, policy_model_cfg, policy_obs_set
+from agile.rl_env.io_descriptor_file import IO_DESCRIPTOR_VERSION
 from agile.utils.config import callable_name
 from agile.utils.math import rounded_list
-
-IO_DESCRIPTOR_VERSION = 2  # 2: the "policy" section (model input/output names, recurrent hidden state)
 
 # Tensor names of rsl-rl's ONNX export (rsl_rl.models: MLPModel.as_onnx, RNNModel.as_onnx)
 ONNX_OBS_NAME, ONNX_ACTIONS_NAME = "obs", "actions"
 ONNX_HIDDEN_STATE_NAMES = {"lstm": [("h_in", "h_out"), ("c_in", "c_out")], "gru": [("h_in", "h_out")]}
-
-
 
 
 def _joint_names(robot, ids) -> list[str]:
@@ -129,45 +124,3 @@ def io_descriptor(env, agent_cfg) -> dict:
         "commands": commands,
         "policy": _policy_interface(policy_model_cfg(agent_cfg)),
     }
-
-
-def write_io_descriptor(path: str, descriptor: dict) -> None:
-    with open(path, "w") as f:
-        yaml.safe_dump(descriptor, f, sort_keys=False)
-
-
-def read_io_descriptor(path: str) -> dict:
-    with open(path) as f:
-        descriptor = yaml.safe_load(f)
-    if descriptor.get("version") != IO_DESCRIPTOR_VERSION:
-        raise ValueError(f"{path}: IO descriptor version {descriptor.get('version')}, expected {IO_DESCRIPTOR_VERSION}")
-    return descriptor
-
-
-def export_policy(runner, out_dir: str) -> tuple[str, str]:
-    """policy.pt (TorchScript) and policy.onnx (weights inside the file) of an RSL-RL runner's actor.
-
-    Both take the actor's observation groups concatenated, (batch, obs_dim), and return the mean action.
-    A recurrent actor (rsl-rl's own export, batch 1) keeps its hidden state inside policy.pt, zeroed by its
-    reset() method, while policy.onnx takes it as inputs and returns the next one as outputs (the descriptor's
-    "policy" section names them).
-    """
-    import onnx
-
-    os.makedirs(out_dir, exist_ok=True)
-    runner.export_policy_to_jit(out_dir, filename="policy.pt")
-    runner.export_policy_to_onnx(out_dir, filename="policy.onnx")
-    onnx_path = os.path.join(out_dir, "policy.onnx")
-    data_path = onnx_path + ".data"
-    model = onnx.load(onnx_path)  # loads external weights too
-    onnx.save(model, onnx_path, save_as_external_data=False)
-    if os.path.exists(data_path):
-        os.remove(data_path)
-    return os.path.join(out_dir, "policy.pt"), onnx_path
-
-
-def example_input(env, agent_cfg) -> torch.Tensor:
-    from agile.rl_env.rsl_rl.vecenv_wrapper import flatten_groups
-
-    obs = flatten_groups(env.obs_buf)
-    return torch.cat([obs[g] for g in agent_cfg.obs_groups[policy_obs_set(agent_cfg)]], dim=-1)

@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import torch
 
-from agile.rl_env.rsl_rl.runner_cfg import L2C2Cfg, checked_cfg
-from agile.rl_env.rsl_rl.sync_free_ppo import SyncFreePPO
+from agile.rl.configs import L2C2Cfg, checked_cfg
+from agile.rl.algorithms.sync_free_ppo import SyncFreePPO
 
 
 class L2C2:

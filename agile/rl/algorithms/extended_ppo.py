@@ -17,7 +17,7 @@ def extended(base: type, mixins: tuple[type, ...]) -> type:
         needed = getattr(mixin, "needs_base", None)
         if needed is not None and not issubclass(base, needed):
             raise ConfigError(f"{mixin.__name__} needs a PPO class derived from {needed.__name__} (e.g. "
-                              f"agent.algorithm.class_name=agile.rl_env.rsl_rl.sync_free_ppo:SyncFreePPO or "
+                              f"agent.algorithm.class_name=agile.rl.algorithms.sync_free_ppo:SyncFreePPO or "
                               f"...captured_ppo:CapturedPPO); got {base.__name__}")
     mixins = tuple(mixin for mixin in mixins if not issubclass(base, mixin))
     if not mixins:

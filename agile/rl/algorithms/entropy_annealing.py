@@ -19,7 +19,7 @@ from __future__ import annotations
 import torch
 from rsl_rl.algorithms import PPO
 
-from agile.rl_env.rsl_rl.runner_cfg import EntropyAnnealingCfg, checked_cfg
+from agile.rl.configs import EntropyAnnealingCfg, checked_cfg
 
 
 class EntropyAnnealing:

@@ -27,7 +27,7 @@ benchmark, under inference mode, captured its updates).
 Across several GPUs (`--distributed`) the graph holds the gradients' all-reduce and the KL's (NCCL collectives can
 be captured; the first, eager update creates the communicator): every rank captures at the same update, since the
 settings that trigger a capture are the same on every rank, and each replay meets the other ranks' replays in the
-collectives, as eager steps do. Select it with `agent.algorithm.class_name=agile.rl_env.rsl_rl.captured_ppo:CapturedPPO`.
+collectives, as eager steps do. Select it with `agent.algorithm.class_name=agile.rl.algorithms.captured_ppo:CapturedPPO`.
 On a CPU it updates as SyncFreePPO does.
 """
 
@@ -38,7 +38,7 @@ from itertools import chain
 import torch
 from rsl_rl.storage import RolloutStorage
 
-from agile.rl_env.rsl_rl.sync_free_ppo import LOSS_SUMS, SyncFreePPO
+from agile.rl.algorithms.sync_free_ppo import LOSS_SUMS, SyncFreePPO
 
 
 class CapturedPPO(SyncFreePPO):

@@ -29,7 +29,7 @@ import math
 import torch
 from torch import nn
 
-from agile.rl_env.rsl_rl.runner_cfg import RewardNormalizationCfg, checked_cfg
+from agile.rl.configs import RewardNormalizationCfg, checked_cfg
 from agile.utils.config import ConfigError
 
 STATE_KEY = "reward_normalizer_state_dict"

@@ -13,7 +13,7 @@ It also keeps the host's clock at each iteration's log (`iteration_stamps_s`, th
 time between two is one whole iteration of the runner (rollout, update, log, any checkpoint save), which
 `agile benchmark` reads to time training iteration by iteration.
 
-The training runners (`CheckpointingRunner`) use it, and the progress loggers (`agile.rl_env.rsl_rl.progress`)
+The training runners (`CheckpointingRunner`) use it, and the progress loggers (`agile.rl.progress`)
 build on it. With RND's intrinsic rewards it keeps rsl-rl's per-step bookkeeping (none of our tasks uses RND).
 """
 

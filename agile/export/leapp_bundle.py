@@ -10,8 +10,8 @@ at the start of an episode. Every input and output carries its semantic kind, it
 its Isaac Lab connection string; the YAML's pipeline configs hold the control frequency and the robot (actuator gains,
 default joint positions, limits: the IO descriptor without its observation and action sections).
 
-Built from the IO descriptor (what `exporter.io_descriptor` writes) and the actor's ONNX-ready module, so that the
-bundle computes what `sim2mujoco.py` computes from the descriptor, by construction of the same rules.
+Built from the IO descriptor (what `agile.export.io_descriptor.io_descriptor` builds) and the actor's ONNX-ready
+module, so that the bundle computes what `sim2mujoco.py` computes from the descriptor, by construction of the same rules.
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ import torch.nn as nn
 from rsl_rl.algorithms import Distillation as RslRlDistillation
 from rsl_rl.utils import resolve_callable
 
-from agile.rl_env.rsl_rl.checkpoints import load_checkpoint, restore_runner
+from agile.rl.checkpoints import load_checkpoint, restore_runner
 
 
 class Distillation(RslRlDistillation):
