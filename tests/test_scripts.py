@@ -249,6 +249,9 @@ def test_eval_of_a_shipped_policy_trained_on_the_registered_task(tmp_path):
                     "--episode_length_s", "0.2", "--out", str(out_file))
     assert code == 0 and "shipped policy: trained on" not in out, out
     assert json.loads(out_file.read_text())["checkpoint"].endswith("Velocity-Height-G1-Teacher-v0.pt")
+    # a summary on the screen, every metric in the file
+    assert "Velocity-Height-G1-Teacher-v0: 2 episodes of 0.2 s (2 envs on cpu)" in out and "  fall_rate: " in out
+    assert f"[agile] metrics: {out_file}" in out and '"reward_per_step"' not in out, out
 
 
 def test_benchmark_runs_on_cpu(tmp_path):

@@ -47,7 +47,9 @@ def command(main):
     @functools.wraps(main)
     def run(argv=None):
         try:
-            return main(argv)
+            result = main(argv)
+            sys.stdout.flush()  # a closed pipe fails here, not in the interpreter's flush at exit
+            return result
         except AgileError as err:
             print(f"error: {err}", file=sys.stderr)
             raise SystemExit(EXIT_USAGE) from None
