@@ -52,7 +52,7 @@ def test_fallen_states_are_collected_without_the_lift(env_and_agent):
 
 
 def test_eval_reports_the_height_error_by_commanded_height(env_and_agent):
-    from agile.run.evaluation import evaluate
+    from agile.run.rollout_metrics import evaluate
 
     env, _ = env_and_agent
     num_actions = env.action_manager.total_action_dim

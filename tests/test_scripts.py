@@ -404,7 +404,7 @@ def test_learning_curve_refuses_a_folder_without_logs(tmp_path):
 
 def test_error_by_command_bins_hand_values():
     import torch
-    from agile.run.eval_breakdowns import ErrorByCommand
+    from agile.run.metric_breakdowns import ErrorByCommand
 
     by_speed = ErrorByCommand((0.05, 0.5), "cpu")
     commanded = torch.tensor([0.0, 0.3, 0.4, 0.7])
@@ -419,7 +419,7 @@ def test_error_by_command_bins_hand_values():
 
 def test_error_by_command_gives_each_bins_standard_error_over_the_envs():
     import torch
-    from agile.run.eval_breakdowns import ErrorByCommand
+    from agile.run.metric_breakdowns import ErrorByCommand
 
     by_speed = ErrorByCommand((0.05,), "cpu")
     commanded = torch.zeros(3)  # three envs, all in the first bin
@@ -434,7 +434,7 @@ def test_error_by_command_gives_each_bins_standard_error_over_the_envs():
     assert one_env.rows()[0]["error_se"] is None  # no spread from one env
 
 def test_error_by_command_tables_read_like_the_docs():
-    from agile.run.eval_breakdowns import error_by_command_tables
+    from agile.run.metric_breakdowns import error_by_command_tables
 
     rows = [{"command": [0.0, 0.2], "error": 0.0486, "steps": 25}, {"command": [0.9, None], "error": 0.059, "steps": 75}]
     assert error_by_command_tables({"height_error_m_by_height_m": rows, "lin_vel_error_mps_by_speed_mps": []}) == (

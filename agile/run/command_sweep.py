@@ -18,7 +18,7 @@ from __future__ import annotations
 import torch
 
 from agile.errors import AgileError
-from agile.run.evaluation import evaluate_per_env, summarise
+from agile.run.rollout_metrics import evaluate_per_env, summarise
 
 SETTLED_AFTER_S = 5.0
 """Episode time after which the reached value counts: a fallen start has got up, a new value has been reached."""

@@ -10,7 +10,7 @@
 
 Each env runs `--num_episodes` episodes of `--episode_length_s` (pushes off unless --pushes); commands are drawn by
 the task's command term, or fixed with --command. Without --checkpoint the policy shipped with agile for the task is
-evaluated. Prints a summary; --out writes every metric as JSON: those of `agile.run.evaluation.evaluate` (what each
+evaluated. Prints a summary; --out writes every metric as JSON: those of `agile.run.rollout_metrics.evaluate` (what each
 key means is there). From Python: `evaluate_checkpoint(task=..., ...)` returns them.
 """
 
@@ -25,8 +25,8 @@ from agile.run import arguments, task_setup
 from agile.errors import AgileError
 
 from agile.run import multi_agent
-from agile.run.eval_breakdowns import error_by_command_tables
-from agile.run.evaluation import evaluate, evaluate_per_env, summarise, velocity_command_name
+from agile.run.metric_breakdowns import error_by_command_tables
+from agile.run.rollout_metrics import evaluate, evaluate_per_env, summarise, velocity_command_name
 from agile.run.policy import inference_cfg
 from agile.run.sweep_plots import plot_sweep
 
@@ -161,9 +161,9 @@ def evaluate_checkpoint(*, task: str, checkpoint: str | None = None, num_envs: i
                         video: str | None = None, trust_checkpoint: bool = False,
                         collect_datasets_anew: bool = False) -> dict:
     """Evaluate `checkpoint` (default: the shipped policy) on `task` (`prepare_evaluation`): every env runs
-    `num_episodes` episodes; the metrics of `agile.run.evaluation.evaluate` (what each key means is there) and what
+    `num_episodes` episodes; the metrics of `agile.run.rollout_metrics.evaluate` (what each key means is there) and what
     was evaluated. `usd` / `video`: the rollout recorded as an animated USD stage / env 0 rendered into an mp4."""
-    from agile.run.recording import UsdRecorder, VideoRecorder
+    from agile.run.recorders import UsdRecorder, VideoRecorder
 
     for path, field in ((usd, "usd"), (video, "video")):
         if path is not None:

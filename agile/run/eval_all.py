@@ -22,7 +22,7 @@ from agile.run import arguments, task_setup
 from agile.errors import AgileError
 from agile.run.policy import inference_cfg
 
-from agile.run.evaluation import evaluate
+from agile.run.rollout_metrics import evaluate
 
 
 def disable_interval_events(env_cfg) -> None:

@@ -216,7 +216,7 @@ def check_run_folder(checkpoint: str | None) -> str:
 
 def run_main(args, episodes: int | None, num_steps: int | None) -> dict:
     """eval.py (`episodes` per env) and play.py (`num_steps` steps of the world) for a multi-agent task."""
-    from agile.run.recording import VideoRecorder
+    from agile.run.recorders import VideoRecorder
 
     run_dir = check_run_folder(args.checkpoint)
     env_cfg, agent_cfg, device = task_setup.load_task(**arguments.task_options(args))

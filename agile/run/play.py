@@ -182,12 +182,12 @@ def main(argv=None) -> None:
 
     recorder = None
     if args.usd:
-        from agile.run.recording import UsdRecorder
+        from agile.run.recorders import UsdRecorder
 
         recorder = UsdRecorder(args.usd, env, num_frames=num_steps or DEFAULT_HEADLESS_STEPS)
     video = None
     if args.video:
-        from agile.run.recording import VideoRecorder
+        from agile.run.recorders import VideoRecorder
 
         if args.video_reference:
             from agile.run.reference_view import reference_command

@@ -100,7 +100,7 @@ class MujocoVideo:
     def __init__(self, path: str, mjcf: str, fps: int):
         import newton
 
-        from agile.run.recording import CameraVideo
+        from agile.run.recorders import CameraVideo
 
         builder = newton.ModelBuilder()
         builder.add_mjcf(mjcf, floating=True, parse_visuals=True)

@@ -73,7 +73,7 @@ def evaluator(task: str, overrides: list[str], device: str, num_envs: int | None
 
     import agile.tasks
     from agile.rl.checkpoints import load_checkpoint
-    from agile.run.evaluation import evaluate
+    from agile.run.rollout_metrics import evaluate
     from agile.run.eval_all import disable_interval_events
     from agile.run.policy import inference_cfg, load_policy
     from agile.tasks.catalogue import task_entry

@@ -72,7 +72,7 @@ def learn_with_clips(runner, options, env_cfg, device: str, log_dir: str, iterat
 
     import torch
     from agile.run.policy import inference_cfg
-    from agile.run.recording import VideoRecorder
+    from agile.run.recorders import VideoRecorder
 
     from agile.rl import flatten_groups
 

@@ -22,7 +22,7 @@ JSON files written before these were merged have the command terms' under "comma
 from __future__ import annotations
 
 from agile.errors import AgileError
-from agile.run.eval_breakdowns import (HEIGHT_BIN_EDGES_M, SPEED_BIN_EDGES_MPS, YAW_RATE_BIN_EDGES_RADPS,
+from agile.run.metric_breakdowns import (HEIGHT_BIN_EDGES_M, SPEED_BIN_EDGES_MPS, YAW_RATE_BIN_EDGES_RADPS,
                                        ErrorByCommand, FallsByTime, OutcomesByVariant, spawn_cell_variants)
 
 FALL_TIME_BIN_S = 1.0
