@@ -68,3 +68,20 @@ def test_ctrl_c_in_a_training_saves_a_checkpoint_and_ends_in_a_line(tmp_path):
     assert "[agile] the first env step took" in out and "an iteration's 24 steps take up to" in out
     saved = list(tmp_path.glob("velocity_t1/*/model_*.pt"))
     assert len(saved) == 1 and f"its weights saved in {saved[0]}" in out, out
+
+
+def test_every_commands_help_imports_no_simulator():
+    """The reference of the commands is generated from their --help: each is quick, without torch or Warp."""
+    from agile.cli import FORWARDED
+    from agile.gui.viewer import LOCAL_HOST
+    from agile.run import play
+
+    assert play.LOCAL_HOST == LOCAL_HOST
+    code = ("import contextlib, io, sys\nfrom agile.cli import FORWARDED, main\nfor name in FORWARDED:\n"
+            "    with contextlib.redirect_stdout(io.StringIO()) as out:\n        try:\n            main([name, '--help'])\n"
+            "        except SystemExit as end:\n            assert end.code == 0, name\n"
+            "    assert out.getvalue().startswith('usage: agile ' + name), name\n"
+            "heavy = [m for m in ('torch', 'warp', 'newton') if m in sys.modules]\nassert not heavy, heavy\n"
+            "print(len(FORWARDED))")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=ENV, timeout=120)
+    assert result.returncode == 0 and result.stdout.strip() == str(len(FORWARDED)), result.stderr

@@ -35,7 +35,9 @@ from agile.errors import AgileError
 from agile.run import multi_agent
 from agile.run.policy import inference_cfg
 
-from agile.gui.viewer import LOCAL_HOST
+LOCAL_HOST = "127.0.0.1"
+"""`agile.gui.viewer.LOCAL_HOST`, named here so that --help does not import the viewer (and torch)."""
+
 
 
 def sinusoidal_actions(step: int, step_dt: float, num_envs: int, action_dim: int, device):
