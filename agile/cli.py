@@ -56,7 +56,7 @@ def cmd_show(args) -> None:
     entry = task_entry(args.task)
     if entry.kind == "multi_agent":
         raise AgileError(f"agile show resolves single-agent tasks; {args.task} is multi-agent (its agents' tasks: "
-             f"{sorted(agile.tasks.task_spec(args.task).single_agent_baselines.values())})")
+                         f"{sorted(agile.tasks.task_spec(args.task).single_agent_baselines.values())})")
     env_cfg, _ = agile.tasks.load_cfgs(args.task)
     env_cfg.num_envs = 1
     apply_overrides({"env": env_cfg}, args.overrides)

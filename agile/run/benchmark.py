@@ -196,8 +196,8 @@ def main(argv=None) -> None:
     arguments.add_recipe_arg(parser)
     args = arguments.parse(parser, argv)
     if args.train_iterations < 2:
-        raise AgileError(f"--train_iterations must be at least 2 (an iteration is timed from one iteration's log to the "
-                 f"next), got {args.train_iterations}")
+        raise AgileError(f"--train_iterations must be at least 2 (an iteration is timed from one iteration's log to "
+                         f"the next), got {args.train_iterations}")
 
     from agile.run import multi_agent, multi_agent_benchmark
 

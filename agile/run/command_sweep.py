@@ -30,7 +30,7 @@ def swept_command(env):
              if term.command_error() is not None and term.command.shape[1] == 1}
     if len(terms) != 1:
         raise AgileError(f"--sweep_command holds a command of one value that measures its own error; this task has "
-                 f"{sorted(terms) or 'none'} (commands: {env.command_manager.active_terms})")
+                         f"{sorted(terms) or 'none'} (commands: {env.command_manager.active_terms})")
     return next(iter(terms.items()))
 
 
@@ -78,8 +78,8 @@ def command_sweep(env, policy, num_episodes: int, values: list[float],
         raise AgileError(f"--sweep_command has {len(values)} values: use at least that many envs (--num_envs)")
     episode_s = env.max_episode_length * env.step_dt
     if episode_s <= settled_after_s:
-        raise AgileError(f"--episode_length_s must exceed {settled_after_s:g} s (the reached value counts from then on), "
-                 f"got {episode_s:g}")
+        raise AgileError(f"--episode_length_s must exceed {settled_after_s:g} s (the reached value counts from then "
+                         f"on), got {episode_s:g}")
     unit_name = term.command_error().command_name  # "height_m"
     value_index = torch.arange(env.num_envs, device=env.device) % len(values)  # of each env
     term.set_fixed_command(torch.tensor(values, device=env.device)[value_index].unsqueeze(1))

@@ -43,11 +43,12 @@ def sweep(env, policy, num_episodes: int, cells: list[tuple[float, ...]], comman
 
     command_name = velocity_command_name(env, command_name)
     if command_name is None:
-        raise AgileError(f"a sweep sets velocity commands; this task has none (commands: {env.command_manager.active_terms})")
+        raise AgileError(f"a sweep sets velocity commands; this task has none (commands: "
+                         f"{env.command_manager.active_terms})")
     term = env.command_manager.get_term(command_name)
     if len(cells[0]) != term.command.shape[1]:
         raise AgileError(f"the sweep gives {len(cells[0])} command values; {command_name} has {term.command.shape[1]} "
-                 "(--sweep_base_height is for tasks with a height command)")
+                         "(--sweep_base_height is for tasks with a height command)")
     if env.num_envs < len(cells):
         raise AgileError(f"the sweep has {len(cells)} cells: use at least that many envs (--num_envs)")
     cell_of_env = torch.arange(env.num_envs, device=env.device) % len(cells)

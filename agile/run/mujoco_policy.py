@@ -166,8 +166,8 @@ def read_bundle(path: str) -> dict:
     bundle = yaml.safe_load(Path(path).read_text())
     configs = bundle.get("pipeline", {}).get("configs", {})
     if "robot" not in configs or "task" not in configs:
-        raise AgileError(f"{path}: not a LEAPP bundle written by agile export --format leapp (its pipeline configs name no "
-                 f"robot and task)")
+        raise AgileError(f"{path}: not a LEAPP bundle written by agile export --format leapp (its pipeline configs "
+                         f"name no robot and task)")
     return bundle
 
 

@@ -53,7 +53,7 @@ def run_checkpoints(run_dir: str, groups) -> dict[str, str]:
 def check_train_args(args) -> None:
     if args.video or args.init_action_std is not None or args.rnn:
         raise AgileError("--video, --init_action_std and --rnn are single-agent options (multi-agent training takes "
-                 "--init_policy GROUP=PATH, --resume and --checkpoint RUN_FOLDER)")
+                         "--init_policy GROUP=PATH, --resume and --checkpoint RUN_FOLDER)")
     if args.checkpoint:
         check_run_folder(args.checkpoint)
     if (args.resume or args.checkpoint) and args.init_policy:
@@ -210,7 +210,7 @@ def restored_runner(world, agent_cfg, run_dir: str | None, trust: bool):
 def check_run_folder(checkpoint: str | None) -> str:
     if checkpoint is None or not os.path.isdir(checkpoint):
         raise AgileError(f"--checkpoint of a multi-agent task is a training run folder (<run>/<group>/model_<it>.pt), "
-                 f"got {checkpoint}")
+                         f"got {checkpoint}")
     return checkpoint
 
 
@@ -252,8 +252,8 @@ def eval_main(args) -> None:
 
 def play_main(args, num_steps: int) -> None:
     if args.viewer == "viser" or args.usd or args.sinusoidal:
-        raise AgileError("a multi-agent task plays headless with its trained groups (--checkpoint RUN_FOLDER, --video); "
-                 "--viewer, --usd and --sinusoidal are single-agent options")
+        raise AgileError("a multi-agent task plays headless with its trained groups (--checkpoint RUN_FOLDER, "
+                         "--video); --viewer, --usd and --sinusoidal are single-agent options")
     metrics = run_main(args, None, num_steps)
     for name, m in metrics["agents"].items():
         print(f"[agile] {name} at {m['control_hz']:g} Hz: falls {m['falls']}, linear tracking error "

@@ -95,7 +95,8 @@ def main(argv=None) -> None:
         raise AgileError(f"unknown task '{args.task}'. Registered tasks: {', '.join(registered_tasks())}")
     entry = task_entry(args.task)
     if not entry.criteria and not entry.minima:
-        raise AgileError(f"{args.task} has no evaluation criteria in the catalogue (kind '{entry.kind}'): nothing to pick by")
+        raise AgileError(f"{args.task} has no evaluation criteria in the catalogue (kind '{entry.kind}'): nothing to "
+                         f"pick by")
     device, fallback = task_setup.resolve_device(args.device)
     if fallback is not None:
         print(f"[agile] {fallback}: evaluating on the CPU")

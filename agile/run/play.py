@@ -152,7 +152,8 @@ def main(argv=None) -> None:
 
     checkpoint, overrides = args.checkpoint, args.overrides
     if args.validate_fallen_states and (checkpoint or args.sinusoidal):
-        raise AgileError("--validate_fallen_states shows the dataset with zero actions: without --checkpoint or --sinusoidal")
+        raise AgileError("--validate_fallen_states shows the dataset with zero actions: without --checkpoint or "
+                         "--sinusoidal")
     if checkpoint is None and not args.sinusoidal and not args.validate_fallen_states:
         # a debug task plays the policy of the task it debugs where agile ships one, else its sliders drive it
         checkpoint, overrides = task_setup.shipped_policy(task=args.task, overrides=overrides)

@@ -183,7 +183,7 @@ def main(argv=None) -> None:
     missing = [name for name in ("av", "pyarrow") if importlib.util.find_spec(name) is None]
     if missing:
         raise AgileError(f"agile record writes videos and parquet files with {' and '.join(missing)}: "
-                 "pip install 'agile[record]'")
+                         "pip install 'agile[record]'")
     if args.encode_processes is not None and args.encode_processes < 0:
         raise AgileError(f"--encode_processes {args.encode_processes}: give 0 (encode in this process) or more")
     if os.path.exists(args.out):

@@ -37,7 +37,8 @@ def velocity_command_name(env, command_name: str | None = None) -> str | None:
     terms = env.command_manager.terms
     with_velocity = [name for name, term in terms.items() if term.command_fields[:3] == VELOCITY_FIELDS]
     if command_name is not None and command_name not in with_velocity:
-        raise AgileError(f"command '{command_name}' is not a velocity command; the task's velocity commands: {with_velocity}")
+        raise AgileError(f"command '{command_name}' is not a velocity command; the task's velocity commands: "
+                         f"{with_velocity}")
     if command_name is None and len(with_velocity) > 1:
         raise AgileError(f"the task has several velocity commands {with_velocity}: name the one to evaluate")
     return command_name or (with_velocity[0] if with_velocity else None)

@@ -113,7 +113,7 @@ class MujocoVideo:
     def __call__(self, mj_model, data) -> None:
         if data.qpos.shape[0] != self.model.joint_coord_count:
             raise AgileError(f"MuJoCo has {data.qpos.shape[0]} position coordinates, Newton's import of the same MJCF "
-                     f"{self.model.joint_coord_count}: cannot copy the pose for the video")
+                             f"{self.model.joint_coord_count}: cannot copy the pose for the video")
         q = data.qpos.astype(np.float32)
         q[3:7] = q[[4, 5, 6, 3]]  # free-joint quaternion: MuJoCo w, x, y, z -> Newton x, y, z, w
         self.state.joint_q.assign(q)
@@ -159,11 +159,11 @@ def main(argv=None) -> None:
         descriptor = yaml_load(args.io)
         if descriptor.get("version") != IO_DESCRIPTOR_VERSION:
             raise AgileError(f"{args.io} is an IO descriptor of version {descriptor.get('version')}, this script reads "
-                     f"version {IO_DESCRIPTOR_VERSION}: export the policy again with agile export")
+                             f"version {IO_DESCRIPTOR_VERSION}: export the policy again with agile export")
         not_joint_targets = [f"{a['name']} ({a['type']})" for a in descriptor["actions"] if "offset" not in a]
         if not_joint_targets:
-            raise AgileError(f"{args.io}: sim2mujoco runs policies whose actions are joint targets (action · scale + offset); "
-                     f"these action terms are not: {not_joint_targets}")
+            raise AgileError(f"{args.io}: sim2mujoco runs policies whose actions are joint targets (action · scale + "
+                             f"offset); these action terms are not: {not_joint_targets}")
 
         def make_policy(robot):
             return DescriptorPolicy(descriptor, robot, args.policy)

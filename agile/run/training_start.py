@@ -22,11 +22,11 @@ def distributed_rank(options: TrainOptions):
     if rank is None:
         if options.distributed:
             raise AgileError("--distributed: start the processes with torchrun (WORLD_SIZE is unset or 1), e.g. "
-                     "torchrun --standalone --nproc_per_node=2 scripts/train.py --task ... --distributed")
+                             "torchrun --standalone --nproc_per_node=2 scripts/train.py --task ... --distributed")
         return None, options.device
     if not options.distributed:
         raise AgileError(f"WORLD_SIZE={rank.world_size} (torchrun) without --distributed: add --distributed to train "
-                 f"data-parallel")
+                         f"data-parallel")
     try:
         device = rank_device(rank, options.device)
     except ValueError as err:
@@ -64,10 +64,10 @@ def as_policy_checkpoint(checkpoint: dict, path: str, state_key: str) -> dict:
         return checkpoint
     if state_key == "student_state_dict":
         raise AgileError(f"--init_policy {path}: a distilled task's student starts from a distilled student (its "
-                 f"student_state_dict); the file holds {sorted(checkpoint)}")
+                         f"student_state_dict); the file holds {sorted(checkpoint)}")
     if "student_state_dict" not in checkpoint:
         raise AgileError(f"--init_policy {path}: no actor_state_dict or student_state_dict in it (it holds "
-                 f"{sorted(checkpoint)})")
+                         f"{sorted(checkpoint)})")
     return {state_key: checkpoint["student_state_dict"], "iter": checkpoint.get("iter", 0),
             "infos": checkpoint.get("infos")}
 
@@ -103,8 +103,8 @@ def shipped_init_policy(task: str, agent_cfg) -> str | None:
         return None
     path = agile.tasks.pretrained_policy(source_task)
     if path is None:
-        raise AgileError(f"{task} fine-tunes the policy of {source_task}, and agile ships none: train {source_task} first "
-                 f"and give --init_policy PATH (its model_<it>.pt)")
+        raise AgileError(f"{task} fine-tunes the policy of {source_task}, and agile ships none: train {source_task} "
+                         f"first and give --init_policy PATH (its model_<it>.pt)")
     print(f"[agile] {task} fine-tunes {source_task}: the actor starts from its shipped policy {path}")
     return str(path)
 
@@ -122,8 +122,8 @@ def distillation_teacher(options: TrainOptions, agent_cfg, resuming: bool) -> st
         return None
     path = options.teacher or agile.tasks.pretrained_policy(agent_cfg.teacher_task)
     if path is None:
-        raise AgileError(f"{options.task} distils the policy of {agent_cfg.teacher_task}, and agile ships none: train it "
-                 f"first and give --teacher PATH (its model_<it>.pt or exported/policy.pt)")
+        raise AgileError(f"{options.task} distils the policy of {agent_cfg.teacher_task}, and agile ships none: train "
+                         f"it first and give --teacher PATH (its model_<it>.pt or exported/policy.pt)")
     if not os.path.isfile(path):
         raise AgileError(f"--teacher file not found: {path}")
     return str(path)
