@@ -139,15 +139,11 @@ class TrainOptions:
     trust_checkpoint: bool = False
     collect_datasets_anew: bool = False
 
-    @property
-    def no_cache(self) -> bool:  # the command's name for it, which multi_agent.train reads
-        return self.collect_datasets_anew
-
 
 @dataclasses.dataclass(frozen=True)
 class TrainResult:
     """What a training run leaves: its folder (None on a distributed run's other ranks), the last checkpoint and the
-    exported policy files ({kind: path}; a multi-agent run: {group: folder})."""
+    exported policy files ({kind: path}; a multi-agent run: {"groups": the folder of a subfolder per group})."""
     log_dir: str | None
     checkpoint: str | None
     exported: dict
@@ -168,18 +164,24 @@ def train(*, task: str, num_envs: int | None = None, device: str | None = None, 
     afresh, from `init_policy` (a checkpoint's actor weights; a multi-agent task: "GROUP=PATH" each), or continues
     (`resume`: the newest checkpoint of the experiment under `log_root`, or `checkpoint`). Checkpoints, logs and the
     resolved configs go to <log_root>/<experiment>/<time>_<run_name>/. `progress`: "bar" | "log" (rsl-rl's block every
-    iteration) | "auto" (the bar on a terminal). Raises AgileError for what it refuses (the field and its valid values named); Ctrl-C saves a
-    checkpoint of where the run was before it ends the run."""
-    options = TrainOptions(**{name: value for name, value in locals().items()})
-    options = dataclasses.replace(options, overrides=tuple(overrides),
-                                  init_policy=(init_policy,) if isinstance(init_policy, str) else tuple(init_policy))
+    iteration) | "auto" (the bar on a terminal). Raises AgileError for what it refuses (the field and its valid values
+    named), before anything is built; Ctrl-C saves a checkpoint of where the run was before it ends the run."""
+    task_setup.check_task(task)
+    options = TrainOptions(
+        task=task, num_envs=num_envs, device=device, seed=seed, rnn=rnn, overrides=tuple(overrides),
+        max_iterations=max_iterations, resume=resume, checkpoint=checkpoint,
+        init_policy=(init_policy,) if isinstance(init_policy, str) else tuple(init_policy),
+        init_action_std=init_action_std, logger=logger, run_name=run_name, log_root=log_root, video=video,
+        video_interval=video_interval, video_length=video_length, inject_nan_actions=inject_nan_actions,
+        progress=progress, full_log_every=full_log_every, teacher=teacher, distributed=distributed,
+        trust_checkpoint=trust_checkpoint, collect_datasets_anew=collect_datasets_anew)
     check_options(options)
     rank, rank_device = distributed_rank(options)
     options = dataclasses.replace(options, device=rank_device)
     if multi_agent.is_multi_agent(task):
         multi_agent.check_train_args(options)
         if rank is not None:
-            raise AgileError("distributed trains single-agent tasks; a multi-agent task trains on one device")
+            raise AgileError("--distributed trains single-agent tasks; a multi-agent task trains on one device")
     env_cfg, agent_cfg, device = task_setup.load_task(task=task, num_envs=num_envs, device=options.device, seed=seed,
                                                       rnn=rnn, overrides=options.overrides)
     if rank is not None:
