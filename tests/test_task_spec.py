@@ -47,3 +47,13 @@ def test_an_unknown_task_is_an_agile_error_and_a_key_error_naming_the_registered
         agile.tasks.task_spec("Velocity-Nope-v0")
     assert isinstance(refused.value, KeyError) and str(refused.value).startswith("unknown task 'Velocity-Nope-v0'")
     assert "Velocity-T1-v0" in str(refused.value)
+
+
+def test_each_kind_runs_every_command_through_one_table():
+    from agile.run.task_kinds import COMMANDS, MULTI_AGENT, RUNTIMES, SINGLE_AGENT, task_runtime
+
+    for runtime in (SINGLE_AGENT, *RUNTIMES.values()):
+        assert all(callable(runtime.function(command)) for command in COMMANDS)
+    kinds = {task: agile.tasks.task_kind(task) for task in agile.tasks.registered_tasks()}
+    assert {task_runtime(task) for task, kind in kinds.items() if kind == "multi_agent"} == {MULTI_AGENT}
+    assert {task_runtime(task) for task, kind in kinds.items() if kind != "multi_agent"} == {SINGLE_AGENT}

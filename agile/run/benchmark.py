@@ -199,11 +199,13 @@ def main(argv=None) -> None:
         raise AgileError(f"--train_iterations must be at least 2 (an iteration is timed from one iteration's log to "
                          f"the next), got {args.train_iterations}")
 
-    from agile.run import multi_agent, multi_agent_benchmark
+    from agile.run.task_kinds import run_command
 
-    if multi_agent.is_multi_agent(args.task):
-        multi_agent_benchmark.benchmark(args.task, args.num_envs, args.device, args.steps, args.overrides, args.out)
-        return
+    run_command("benchmark", args.task, args)
+
+
+def benchmark_single_agent(args) -> None:
+    """`agile benchmark` for every kind but multi-agent (`agile.run.task_kinds`)."""
     import torch
 
     rows = []

@@ -24,7 +24,7 @@ from agile.run.arguments import command
 from agile.run import arguments, task_setup
 from agile.errors import AgileError
 
-from agile.run import multi_agent
+from agile.run.task_kinds import run_command
 from agile.run.metric_breakdowns import error_by_command_tables
 from agile.run.rollout_metrics import evaluate, evaluate_per_env, summarise, velocity_command_name
 from agile.run.policy import inference_cfg
@@ -241,9 +241,11 @@ def main(argv=None) -> None:
         parser.error("the following arguments are required: --task")
     if args.sweep_command is not None and (args.sweep_lin_vel_x is not None or args.command is not None):
         raise AgileError("--sweep_command holds its own commands: not with --sweep_lin_vel_x or --command")
-    if multi_agent.is_multi_agent(args.task):
-        multi_agent.eval_main(args)
-        return
+    run_command("eval", args.task, args)
+
+
+def eval_single_agent(args) -> None:
+    """`agile eval` for every kind but multi-agent (`agile.run.task_kinds`)."""
     options = dict(task=args.task, checkpoint=args.checkpoint, num_envs=args.num_envs, device=args.device,
                    seed=args.seed, rnn=args.rnn, overrides=args.overrides, episode_length_s=args.episode_length_s,
                    pushes=args.pushes, command=args.command, trust_checkpoint=args.trust_checkpoint,

@@ -22,7 +22,7 @@ import os
 from agile.run import arguments, task_setup
 from agile.errors import AgileError
 
-from agile.run import multi_agent
+from agile.run.task_kinds import run_command
 from agile.run.arguments import command
 from agile.run.policy import inference_cfg
 
@@ -94,11 +94,11 @@ def main(argv=None) -> None:
                              "<out>/<task>/ (raw robot state in, joint targets out)")
     arguments.add_checkpoint_args(parser)
     args = arguments.parse(parser, argv)
-    if multi_agent.is_multi_agent(args.task):
-        if args.format != "torchscript":
-            raise AgileError(f"--format {args.format}: a multi-agent task exports each group's policy as TorchScript")
-        multi_agent.export_main(args)
-        return
+    run_command("export", args.task, args)
+
+
+def export_single_agent(args) -> None:
+    """`agile export` for every kind but multi-agent (`agile.run.task_kinds`)."""
     paths = export_checkpoint(task=args.task, out_dir=args.out, checkpoint=args.checkpoint, format=args.format,
                               device=args.device, num_envs=args.num_envs or 1, seed=args.seed, rnn=args.rnn,
                               overrides=args.overrides, trust_checkpoint=args.trust_checkpoint,

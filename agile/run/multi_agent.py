@@ -13,12 +13,6 @@ from agile.errors import AgileError
 from agile.run.policy import inference_cfg
 
 
-def is_multi_agent(task: str) -> bool:
-    import agile.tasks
-
-    return agile.tasks.task_kind(task) == "multi_agent"
-
-
 def make_world(task: str, env_cfg, device: str):
     world = task_setup.make_env(task=task, env_cfg=env_cfg, device=device)
     print(f"[agile] agents {list(world.agents)}; schedule (physics steps, {world.physics_dt_s * 1000:g} ms): "
@@ -69,13 +63,19 @@ def latest_run(log_root: str, experiment: str, groups) -> str:
     return str(runs[-1])
 
 
-def train(args, env_cfg, agent_cfg, device: str) -> tuple[str, str]:
-    """Train every agent group (`args`: `agile.run.train.TrainOptions`); (the run's folder, its export folder)."""
+def train(args, rank):
+    """`agile.run.train.train` for a multi-agent task (`args`: its `TrainOptions`): every agent group trained, its
+    policy exported; a `TrainResult`."""
     from agile.marl.runner import MultiAgentRunner
+    from agile.run.train import TrainResult, run_configs
     from agile.rl.checkpoints import restore_runner
     from agile.rl.progress import show_progress
     from agile.utils.config import ConfigError
 
+    check_train_args(args)
+    if rank is not None:
+        raise AgileError("--distributed trains single-agent tasks; a multi-agent task trains on one device")
+    env_cfg, agent_cfg, device = run_configs(args)
     init_files = group_files(args.init_policy, agent_cfg.groups, "--init_policy")
     init_contents = {g: task_setup.read_checkpoint(p, args.trust_checkpoint) for g, p in init_files.items()}
     resume_files = {}
@@ -110,7 +110,7 @@ def train(args, env_cfg, agent_cfg, device: str) -> tuple[str, str]:
     export_groups(runner, export_dir)
     print(f"[agile] logs and checkpoints of each group in {log_dir}/<group>, its exported policy in "
           f"{export_dir}/<group>")
-    return log_dir, export_dir
+    return TrainResult(log_dir=log_dir, checkpoint=None, exported={"groups": export_dir})
 
 
 def export_groups(runner, out_dir: str) -> None:
@@ -241,27 +241,41 @@ def run_main(args, episodes: int | None, num_steps: int | None) -> dict:
             "num_envs": world.num_envs, "episode_length_s": world.max_episode_length_s}
 
 
-def eval_main(args) -> None:
-    metrics = run_main(args, args.num_episodes, None)
-    metrics["pushes"] = args.pushes
-    print(json.dumps(metrics, indent=2))
-    if args.out:
-        with open(args.out, "w") as f:
-            json.dump(metrics, f, indent=2)
-
-
-def play_main(args, num_steps: int) -> None:
-    if args.viewer == "viser" or args.usd or args.sinusoidal:
-        raise AgileError("a multi-agent task plays headless with its trained groups (--checkpoint RUN_FOLDER, "
-                         "--video); --viewer, --usd and --sinusoidal are single-agent options")
-    metrics = run_main(args, None, num_steps)
+def print_agents(metrics: dict) -> None:
     for name, m in metrics["agents"].items():
         print(f"[agile] {name} at {m['control_hz']:g} Hz: falls {m['falls']}, linear tracking error "
               f"{m['lin_vel_error_mps']:.3f} m/s")
 
 
+def eval_main(args) -> None:
+    """`agile eval` for a multi-agent task: each agent's summary printed, every metric in --out."""
+    if any(getattr(args, name) is not None for name in ("command", "sweep_lin_vel_x", "sweep_command", "usd")):
+        raise AgileError("--command, the sweeps and --usd are single-agent options (a multi-agent task takes --video)")
+    metrics = run_main(args, args.num_episodes, None)
+    metrics["pushes"] = args.pushes
+    print_agents(metrics)
+    if args.out:
+        with open(args.out, "w") as f:
+            json.dump(metrics, f, indent=2)
+        print(f"[agile] metrics: {args.out}")
+
+
+def play_main(args) -> None:
+    """`agile play` for a multi-agent task: headless, its trained groups, for --num_steps steps."""
+    from agile.run.play import DEFAULT_HEADLESS_STEPS
+
+    if args.viewer == "viser" or args.usd or args.sinusoidal:
+        raise AgileError("a multi-agent task plays headless with its trained groups (--checkpoint RUN_FOLDER, "
+                         "--video); --viewer, --usd and --sinusoidal are single-agent options")
+    if args.video_reference:
+        raise AgileError("--video_reference: a multi-agent task's commands have no reference pose")
+    print_agents(run_main(args, None, args.num_steps or DEFAULT_HEADLESS_STEPS))
+
+
 def export_main(args) -> None:
-    """export.py for a multi-agent task: every group of a training run, into <out>/<group>/."""
+    """`agile export` for a multi-agent task: every group of a training run, as TorchScript into <out>/<group>/."""
+    if args.format != "torchscript":
+        raise AgileError(f"--format {args.format}: a multi-agent task exports each group's policy as TorchScript")
     run_dir = check_run_folder(args.checkpoint)
     env_cfg, agent_cfg, device = task_setup.load_task(**arguments.task_options(args))
     world = make_world(args.task, evaluation_cfg(env_cfg, pushes=False), device)

@@ -83,3 +83,8 @@ def benchmark(task: str, num_envs_list: list[int], device: str | None, steps: in
     if out:
         with open(out, "w") as f:
             json.dump({"task": task, "results": rows}, f, indent=2)
+
+
+def benchmark_main(args) -> None:
+    """`agile benchmark` for a multi-agent task: the world's step against the sum of its agents' single-robot tasks."""
+    benchmark(args.task, args.num_envs, args.device, args.steps, args.overrides, args.out)

@@ -32,7 +32,7 @@ from agile.run.arguments import command
 from agile.run import arguments, task_setup
 from agile.errors import AgileError
 
-from agile.run import multi_agent
+from agile.run.task_kinds import run_command
 from agile.run.policy import inference_cfg
 
 LOCAL_HOST = "127.0.0.1"
@@ -139,11 +139,11 @@ def main(argv=None) -> None:
     args = arguments.parse(parser, argv)
     if args.video_reference and not args.video:
         raise AgileError("--video_reference draws into the --video mp4: give --video PATH.mp4 too")
-    if multi_agent.is_multi_agent(args.task):
-        if args.video_reference:
-            raise AgileError("--video_reference: a multi-agent task's commands have no reference pose")
-        multi_agent.play_main(args, args.num_steps or DEFAULT_HEADLESS_STEPS)
-        return
+    run_command("play", args.task, args)
+
+
+def play_single_agent(args) -> None:
+    """`agile play` for every kind but multi-agent (`agile.run.task_kinds`)."""
     import agile.tasks
 
     debug_task = agile.tasks.task_kind(args.task) == "debug"

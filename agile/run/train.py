@@ -26,7 +26,7 @@ from agile.run.arguments import command
 from agile.run import arguments, task_setup
 from agile.errors import AgileError
 
-from agile.run import multi_agent
+from agile.run.task_kinds import run_command
 from agile.run.training_start import check_rank_weights, distributed_rank, restore_start, starting_point
 
 DEFAULT_LOG_ROOT = os.path.join("logs", "rsl_rl")
@@ -177,13 +177,15 @@ def train(*, task: str, num_envs: int | None = None, device: str | None = None, 
         trust_checkpoint=trust_checkpoint, collect_datasets_anew=collect_datasets_anew)
     check_options(options)
     rank, rank_device = distributed_rank(options)
-    options = dataclasses.replace(options, device=rank_device)
-    if multi_agent.is_multi_agent(task):
-        multi_agent.check_train_args(options)
-        if rank is not None:
-            raise AgileError("--distributed trains single-agent tasks; a multi-agent task trains on one device")
-    env_cfg, agent_cfg, device = task_setup.load_task(task=task, num_envs=num_envs, device=options.device, seed=seed,
-                                                      rnn=rnn, overrides=options.overrides)
+    return run_command("train", task, dataclasses.replace(options, device=rank_device), rank)
+
+
+def run_configs(options: TrainOptions, rank=None) -> task_setup.TaskConfigs:
+    """The run's env and agent configs and device (`task_setup.load_task`), with the options that set agent config
+    fields applied and, on a distributed run, this rank's seed (the seed + the rank)."""
+    env_cfg, agent_cfg, device = task_setup.load_task(task=options.task, num_envs=options.num_envs,
+                                                      device=options.device, seed=options.seed, rnn=options.rnn,
+                                                      overrides=options.overrides)
     if rank is not None:
         env_cfg.seed += rank.rank
         agent_cfg.seed += rank.rank
@@ -191,10 +193,7 @@ def train(*, task: str, num_envs: int | None = None, device: str | None = None, 
     for name in ("max_iterations", "logger", "run_name"):
         if getattr(options, name) is not None:
             setattr(agent_cfg, name, getattr(options, name))
-    if multi_agent.is_multi_agent(task):
-        log_dir, export_dir = multi_agent.train(options, env_cfg, agent_cfg, device)
-        return TrainResult(log_dir=log_dir, checkpoint=None, exported={"groups": export_dir})
-    return train_single_agent(options, env_cfg, agent_cfg, device, rank)
+    return task_setup.TaskConfigs(env_cfg, agent_cfg, device)
 
 
 def check_options(options: TrainOptions) -> None:
@@ -277,7 +276,9 @@ def save_interrupted(runner, log_dir: str | None) -> str | None:
     return path
 
 
-def train_single_agent(options: TrainOptions, env_cfg, agent_cfg, device: str, rank) -> TrainResult:
+def train_single_agent(options: TrainOptions, rank) -> TrainResult:
+    """`train` for every kind but multi-agent (`agile.run.task_kinds`)."""
+    env_cfg, agent_cfg, device = run_configs(options, rank)
     start = starting_point(options, agent_cfg)
     if start["resume_contents"] is not None:
         task_setup.warn_overrides_not_repeated(start["resume_contents"], {"env": env_cfg, "agent": agent_cfg},
