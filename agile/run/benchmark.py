@@ -195,7 +195,7 @@ def main(argv=None) -> None:
     parser.add_argument("overrides", nargs="*", help=arguments.OVERRIDE_HELP)
     arguments.add_recipe_arg(parser)
     args = arguments.parse(parser, argv)
-    if args.train_iterations < 2:
+    if args.train_iterations < 2:  # refused before the simulator is imported (`benchmark` refuses it too)
         raise AgileError(f"--train_iterations must be at least 2 (an iteration is timed from one iteration's log to "
                          f"the next), got {args.train_iterations}")
 
@@ -204,18 +204,33 @@ def main(argv=None) -> None:
     run_command("benchmark", args.task, args)
 
 
-def benchmark_single_agent(args) -> None:
-    """`agile benchmark` for every kind but multi-agent (`agile.run.task_kinds`)."""
+def benchmark(*, task: str, num_envs=(1024, 4096, 16384), device: str | None = None, steps: int = 200,
+              train_iterations: int = 20, overrides=()) -> list[dict]:
+    """Measure `task` at each env count of `num_envs`, one after another (`measure`: raw physics, env.step and
+    training rates, startup, memory, where an iteration goes); a row per count, each printed as JSON when measured."""
     import torch
 
+    if train_iterations < 2:
+        raise AgileError(f"train_iterations must be at least 2 (an iteration is timed from one iteration's log to the "
+                         f"next), got {train_iterations}")
     rows = []
-    for num_envs in args.num_envs:
-        env_cfg, agent_cfg, device = task_setup.load_task(task=args.task, num_envs=num_envs, device=args.device,
-                                                     overrides=args.overrides)
-        rows.append(measure(args.task, env_cfg, agent_cfg, device, args.steps, args.train_iterations))
+    for count in num_envs:
+        env_cfg, agent_cfg, device_used = task_setup.load_task(task=task, num_envs=count, device=device,
+                                                               overrides=overrides)
+        rows.append(measure(task, env_cfg, agent_cfg, device_used, steps, train_iterations))
         print(json.dumps(rows[-1]), flush=True)
-        if device.startswith("cuda"):
+        if device_used.startswith("cuda"):
             torch.cuda.empty_cache()
+    return rows
+
+
+def benchmark_single_agent(args) -> None:
+    """`agile benchmark` for every kind but multi-agent (`agile.run.task_kinds`): the rows and their tables."""
+    import torch
+
+    rows = benchmark(task=args.task, num_envs=args.num_envs, device=args.device, steps=args.steps,
+                     train_iterations=args.train_iterations, overrides=args.overrides)
+    device, _ = task_setup.resolve_device(args.device)
 
     name = torch.cuda.get_device_name() if str(device).startswith("cuda") else "CPU"
     print(f"\n{args.task} on {name} (env-steps/s; ratios to raw physics)")
