@@ -5,7 +5,7 @@ from __future__ import annotations
 import torch
 from tensordict import TensorDict
 
-from agile.rl.configs import with_extensions
+from agile.rl.extensions import compose_algorithm
 
 
 class FakeVecEnv:
@@ -20,7 +20,7 @@ def ppo_algorithm(class_name: str, num_envs: int, num_steps: int, obs_dim: int, 
     """The PPO class `class_name` with the algorithm `settings` (extensions composed as `to_rsl_rl_dict` does), tiny
     MLPs, built by rsl-rl's own construction on `device`."""
     algorithm = {"class_name": class_name, **settings}
-    with_extensions(algorithm)
+    compose_algorithm(algorithm)
     cfg = {"obs_groups": {"actor": ["policy"], "critic": ["policy"]}, "num_steps_per_env": num_steps,
            "multi_gpu": None,
            "actor": {"class_name": "MLPModel", "hidden_dims": [16], "activation": "elu",

@@ -61,11 +61,11 @@ def test_distributed_needs_torchrun_and_torchrun_needs_distributed(monkeypatch):
 @pytest.mark.gpu
 @pytest.mark.skipif(torch.cuda.device_count() < 2, reason="needs two CUDA devices")
 def test_two_gpu_ranks_replay_a_captured_update_and_end_with_the_same_weights(tmp_path):
-    """CapturedPPO across GPUs: the gradients' NCCL all-reduce inside the captured step; both ranks capture, replay
-    (iterations 2 and 3) and hold the same weights at the end."""
+    """The captured update across GPUs: the gradients' NCCL all-reduce inside the captured step; both ranks capture,
+    replay (iterations 2 and 3) and hold the same weights at the end."""
     gpu_t1 = [arg for arg in FLAT_T1 if arg not in ("--device", "cpu")]
     code, out = torchrun(*gpu_t1, "--max_iterations", "3", "--log_root", str(tmp_path), "--seed", "7",
-                         "agent.algorithm.class_name=agile.rl.algorithms.captured_ppo:CapturedPPO",
+                         "agent.algorithm.captured_update=true",
                          timeout=300)  # a capture that deadlocks (seen elsewhere with NCCL) must not hold the GPUs
     assert code == 0, out[-3000:]
     assert "runs as a CUDA graph on cuda:0" in out and "runs as a CUDA graph on cuda:1" in out, out[-3000:]

@@ -1,5 +1,5 @@
-"""AGILE's entropy-coefficient annealing (EntropyAnnealingPPO): the coefficient decays per iteration once the run is
-past its start iteration and the ended episodes last long enough, never below its minimum; it survives a checkpoint;
+"""AGILE's entropy-coefficient annealing (`entropy_annealing`, the EntropyAnnealing mixin): the coefficient decays per
+iteration once the run is past its start iteration and the ended episodes last long enough, never below its minimum; it survives a checkpoint;
 bad settings name the field (CPU, rsl-rl's algorithm on a fake env)."""
 
 from __future__ import annotations
@@ -10,7 +10,8 @@ from tensordict import TensorDict
 
 import agile.tasks
 from agile.rl import to_rsl_rl_dict
-from agile.rl.algorithms.entropy_annealing import EntropyAnnealingPPO
+from agile.rl.algorithms.entropy_annealing import EntropyAnnealing
+from agile.rl.extensions import compose_algorithm
 from agile.utils.config import ConfigError
 
 NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS, EPISODE_STEPS = 8, 10, 6, 3, 20
@@ -24,17 +25,18 @@ class FakeEnv:
     max_episode_length = EPISODE_STEPS
 
 
-def make_algorithm(**annealing) -> EntropyAnnealingPPO:
+def make_algorithm(**annealing) -> EntropyAnnealing:
     obs = TensorDict({"policy": torch.zeros(NUM_ENVS, OBS_DIM)}, batch_size=[NUM_ENVS])
     cfg = {"obs_groups": {"actor": ["policy"], "critic": ["policy"]}, "num_steps_per_env": NUM_STEPS,
            "multi_gpu": None,
            "actor": {"class_name": "MLPModel", "hidden_dims": [16], "activation": "elu",
                      "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": 1.0}},
            "critic": {"class_name": "MLPModel", "hidden_dims": [16], "activation": "elu"},
-           "algorithm": {"class_name": "agile.rl.algorithms.entropy_annealing:EntropyAnnealingPPO",
+           "algorithm": {"class_name": "PPO",
                          "entropy_coef": 0.005, "entropy_annealing": annealing}}
+    compose_algorithm(cfg["algorithm"])
     torch.manual_seed(0)
-    return EntropyAnnealingPPO.construct_algorithm(obs, FakeEnv(), cfg, "cpu")
+    return cfg["algorithm"]["class_name"].construct_algorithm(obs, FakeEnv(), cfg, "cpu")
 
 
 def iterate(algorithm, episode_steps: int) -> dict:
@@ -103,7 +105,7 @@ def test_bad_settings_name_the_field(field, value, message):
 def test_pick_place_anneals_as_agile_does():
     _, agent_cfg = agile.tasks.load_cfgs("PickPlace-G1-v0")
     algorithm = to_rsl_rl_dict(agent_cfg)["algorithm"]
-    assert algorithm["class_name"] == "agile.rl.algorithms.entropy_annealing:EntropyAnnealingPPO"
+    assert issubclass(algorithm["class_name"], EntropyAnnealing) and algorithm["class_name"].__name__ == "EntropyAnnealingPPO"
     assert algorithm["entropy_annealing"] == {"start_iteration": 2000, "min_episode_length_share": 0.3,
                                               "decay_per_iteration": 0.9998, "min_entropy_coef": 0.001}
     agent_cfg.algorithm.entropy_annealing.decay_per_iteration = 0.0

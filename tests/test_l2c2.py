@@ -1,6 +1,6 @@
 """AGILE's L2C2 term (agile.rl.algorithms.l2c2): zero where consecutive observations agree or an episode ends between
 them, grows with the change and its weights, enters the update and its log, composes with reward normalisation, and
-is refused with a PPO class that has no place for it (CPU, on a fake env)."""
+is refused with rsl-rl's own update, which has no place for it (CPU, on a fake env)."""
 
 from __future__ import annotations
 
@@ -10,16 +10,15 @@ from tensordict import TensorDict
 
 from agile.rl.algorithms.l2c2 import L2C2
 from agile.rl.algorithms.reward_normalization import RewardNormalization
-from agile.rl.algorithms.sync_free_ppo import SyncFreePPO
+from agile.rl.algorithms.sync_free_update import SyncFreeUpdate
 from agile.utils.config import ConfigError
 from ppo_fakes import ppo_algorithm
 
 NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS = 16, 6, 4, 3
-SYNC_FREE = "agile.rl.algorithms.sync_free_ppo:SyncFreePPO"
 
 
 def make(l2c2: dict | None = None, **settings):
-    return ppo_algorithm(SYNC_FREE, NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS, l2c2=l2c2, **settings)
+    return ppo_algorithm("PPO", NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS, sync_free_update=True, l2c2=l2c2, **settings)
 
 
 def fill_rollout(algorithm, observations: torch.Tensor, dones: torch.Tensor) -> None:
@@ -68,7 +67,7 @@ def test_the_term_is_linear_in_its_weights():
 
 def test_it_enters_the_update_and_its_log():
     with_term, without = make({}), make(None)
-    assert isinstance(with_term, L2C2) and type(without) is SyncFreePPO
+    assert isinstance(with_term, L2C2) and isinstance(without, SyncFreeUpdate) and not isinstance(without, L2C2)
     for algorithm in (with_term, without):
         fill_rollout(algorithm, walking_observations(), torch.zeros(NUM_STEPS, NUM_ENVS))
     losses = with_term.update()
@@ -78,13 +77,14 @@ def test_it_enters_the_update_and_its_log():
 def test_it_composes_with_reward_normalisation():
     algorithm = make({}, reward_normalization={})
     assert isinstance(algorithm, RewardNormalization) and isinstance(algorithm, L2C2)
-    assert type(algorithm).__name__ == "RewardNormalizationL2C2SyncFreePPO"
+    assert type(algorithm).__name__ == "RewardNormalizationL2C2SyncFreeUpdatePPO"
     fill_rollout(algorithm, walking_observations(), torch.zeros(NUM_STEPS, NUM_ENVS))
     assert algorithm.update()["l2c2"] > 0.0
 
 
-def test_a_ppo_class_without_the_hook_is_refused_naming_both():
-    with pytest.raises(ConfigError, match="L2C2 needs a PPO class derived from SyncFreePPO.*got PPO"):
+def test_with_rsl_rls_own_update_it_is_refused_naming_both():
+    with pytest.raises(ConfigError, match=r"algorithm\.l2c2 cannot combine with rsl-rl's own update: it needs "
+                                          r"algorithm\.sync_free_update or algorithm\.captured_update"):
         ppo_algorithm("PPO", NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS, l2c2={})
 
 
@@ -99,10 +99,10 @@ def test_a_bad_setting_is_named(values, field):
 @pytest.mark.gpu
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
 def test_the_captured_update_replays_the_term_with_new_draws():
-    """CapturedPPO records the mini-batch step, the L2C2 term's random pairs included, and replays it: the replayed
+    """The captured update records the mini-batch step, the L2C2 term's random pairs included, and replays it: the replayed
     updates log a term that changes with the draws and the rollout."""
-    algorithm = ppo_algorithm("agile.rl.algorithms.captured_ppo:CapturedPPO", NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS,
-                              device="cuda:0", l2c2={})
+    algorithm = ppo_algorithm("PPO", NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS, device="cuda:0", captured_update=True,
+                              l2c2={})
     terms = []
     for _ in range(4):  # the first update is eager, the second captures, the rest replay
         # the rollout as rsl-rl's runner collects it, under inference mode: an actor forward with autograd on the

@@ -1,7 +1,7 @@
-"""SyncFreePPO's update (the learning rate adapted on the device, fused Adam, losses read once) and CapturedPPO's (its
-mini-batch step replayed as a CUDA graph) do rsl-rl's PPO math: from the same weights and the same rollouts, the
-losses, the adapted learning rate and the weights after each update match the plain update (CPU; CapturedPPO's graph
-on a CUDA device)."""
+"""The sync-free update (`sync_free_update`: the learning rate adapted on the device, fused Adam, losses read once) and
+the captured one (`captured_update`: its mini-batch step replayed as a CUDA graph) do rsl-rl's PPO math: from the same
+weights and the same rollouts, the losses, the adapted learning rate and the weights after each update match the plain
+update (CPU; the captured update's graph on a CUDA device)."""
 
 from __future__ import annotations
 
@@ -12,10 +12,11 @@ import torch
 from rsl_rl.algorithms import PPO
 from tensordict import TensorDict
 
-from agile.rl.algorithms.captured_ppo import CapturedPPO
-from agile.rl.algorithms.sync_free_ppo import SyncFreePPO
+from agile.rl.extensions import compose_algorithm
 
 NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS = 16, 12, 10, 4
+UPDATES = {"rsl_rl": {}, "sync_free": {"sync_free_update": True}, "captured": {"captured_update": True}}
+"""The PPO update by name -> the algorithm config's switches for it."""
 
 
 class FakeEnv:
@@ -32,7 +33,7 @@ def flip(env, obs=None, actions=None):
     return obs_aug, None if actions is None else torch.cat((actions, -actions))
 
 
-def make_algorithm(cls, desired_kl: float, device: str = "cpu", symmetry_cfg: dict | None = None,
+def make_algorithm(update: str, desired_kl: float, device: str = "cpu", symmetry_cfg: dict | None = None,
                    use_mixed_precision: bool = False):
     obs = TensorDict({"policy": torch.zeros(NUM_ENVS, OBS_DIM, device=device)}, batch_size=[NUM_ENVS])
     cfg = {"obs_groups": {"actor": ["policy"], "critic": ["policy"]}, "num_steps_per_env": NUM_STEPS,
@@ -41,10 +42,11 @@ def make_algorithm(cls, desired_kl: float, device: str = "cpu", symmetry_cfg: di
                      "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": 1.0}},
            "critic": {"class_name": "MLPModel", "hidden_dims": [32, 32], "activation": "elu",
                       "obs_normalization": True},
-           "algorithm": {"class_name": cls, "learning_rate": 1.0e-3, "schedule": "adaptive",
+           "algorithm": {"class_name": "PPO", **UPDATES[update], "learning_rate": 1.0e-3, "schedule": "adaptive",
                          "desired_kl": desired_kl, "num_learning_epochs": 3, "num_mini_batches": 2,
                          "entropy_coef": 0.005, "symmetry_cfg": symmetry_cfg,
                          "use_mixed_precision": use_mixed_precision}}
+    compose_algorithm(cfg["algorithm"])
     torch.manual_seed(0)
     return PPO.construct_algorithm(obs, FakeEnv(), cfg, device)
 
@@ -70,10 +72,10 @@ def fill_rollout(algorithm, seed: int = 1) -> None:
         algorithm.compute_returns(obs)
 
 
-@pytest.mark.parametrize("cls", [SyncFreePPO, CapturedPPO])  # on a CPU CapturedPPO updates as SyncFreePPO does
+@pytest.mark.parametrize("update", ["sync_free", "captured"])  # on a CPU the captured update runs eagerly
 @pytest.mark.parametrize("desired_kl", [0.01, 1.0e-6, 10.0])  # the learning rate held, lowered, raised
-def test_the_sync_free_update_matches_rsl_rls_update(desired_kl, cls):
-    plain, sync_free = make_algorithm("PPO", desired_kl), make_algorithm(cls, desired_kl)
+def test_the_sync_free_update_matches_rsl_rls_update(desired_kl, update):
+    plain, sync_free = make_algorithm("rsl_rl", desired_kl), make_algorithm(update, desired_kl)
     sync_free.actor.load_state_dict(plain.actor.state_dict())
     sync_free.critic.load_state_dict(plain.critic.state_dict())
     results = []
@@ -96,9 +98,9 @@ def test_the_sync_free_update_matches_rsl_rls_update(desired_kl, cls):
 
 @pytest.mark.parametrize("per_mini_batch", [False, True])
 def test_the_returns_and_advantages_are_rsl_rls_to_the_bit(per_mini_batch):
-    """SyncFreePPO's GAE (all TD errors at once, two kernels a step) computes rsl-rl's numbers exactly: the same
+    """the sync-free update's GAE (all TD errors at once, two kernels a step) computes rsl-rl's numbers exactly: the same
     operations in the same order on every element, over episodes that end mid-rollout."""
-    plain, sync_free = make_algorithm("PPO", 0.01), make_algorithm(SyncFreePPO, 0.01)
+    plain, sync_free = make_algorithm("rsl_rl", 0.01), make_algorithm("sync_free", 0.01)
     sync_free.critic.load_state_dict(plain.critic.state_dict())
     for algorithm in (plain, sync_free):
         algorithm.normalize_advantage_per_mini_batch = per_mini_batch
@@ -118,8 +120,8 @@ def test_the_sync_free_update_matches_rsl_rls_update_with_symmetry(mirror_loss):
     without autograd here): the same losses and weights as rsl-rl's update."""
     symmetry = {"use_data_augmentation": True, "use_mirror_loss": mirror_loss, "mirror_loss_coeff": 0.5,
                 "data_augmentation_func": flip}
-    plain = make_algorithm("PPO", 0.01, symmetry_cfg=dict(symmetry))
-    sync_free = make_algorithm(SyncFreePPO, 0.01, symmetry_cfg=dict(symmetry))
+    plain = make_algorithm("rsl_rl", 0.01, symmetry_cfg=dict(symmetry))
+    sync_free = make_algorithm("sync_free", 0.01, symmetry_cfg=dict(symmetry))
     sync_free.actor.load_state_dict(plain.actor.state_dict())
     sync_free.critic.load_state_dict(plain.critic.state_dict())
     results = []
@@ -136,13 +138,13 @@ def test_the_sync_free_update_matches_rsl_rls_update_with_symmetry(mirror_loss):
 
 def test_the_bf16_update_matches_rsl_rls_bf16_update():
     """`algorithm.use_mixed_precision` (the runner setting, bf16 autocast of the forward passes) reaches the update,
-    and SyncFreePPO's bf16 update does rsl-rl's: the same losses and weights (to bf16's tolerance) from the same start."""
+    and the sync-free update's bf16 update does rsl-rl's: the same losses and weights (to bf16's tolerance) from the same start."""
     from agile.rl import PpoAlgorithmCfg
 
     assert "use_mixed_precision" in vars(PpoAlgorithmCfg())
-    plain, sync_free = make_algorithm("PPO", 0.01, use_mixed_precision=True), \
-        make_algorithm(SyncFreePPO, 0.01, use_mixed_precision=True)
-    full = make_algorithm(SyncFreePPO, 0.01)
+    plain, sync_free = make_algorithm("rsl_rl", 0.01, use_mixed_precision=True), \
+        make_algorithm("sync_free", 0.01, use_mixed_precision=True)
+    full = make_algorithm("sync_free", 0.01)
     assert plain.use_mixed_precision and sync_free.use_mixed_precision
     for algorithm in (sync_free, full):
         algorithm.actor.load_state_dict(plain.actor.state_dict())
@@ -161,12 +163,12 @@ def test_the_bf16_update_matches_rsl_rls_bf16_update():
 
 
 def test_a_checkpoint_of_the_sync_free_update_resumes_in_either():
-    sync_free = make_algorithm(SyncFreePPO, 1.0e-6)
+    sync_free = make_algorithm("sync_free", 1.0e-6)
     fill_rollout(sync_free)
     sync_free.update()
     saved = sync_free.save()
     assert isinstance(saved["optimizer_state_dict"]["param_groups"][0]["lr"], float)
-    plain, again = make_algorithm("PPO", 0.01), make_algorithm(SyncFreePPO, 0.01)
+    plain, again = make_algorithm("rsl_rl", 0.01), make_algorithm("sync_free", 0.01)
     for algorithm in (plain, again):
         algorithm.load(saved, None, strict=True)
         assert algorithm.learning_rate == pytest.approx(sync_free.learning_rate)
@@ -174,17 +176,17 @@ def test_a_checkpoint_of_the_sync_free_update_resumes_in_either():
     assert again.optimizer.param_groups[0]["lr"] is again.learning_rate_t  # the update still adapts it on the device
 
 
-@pytest.mark.parametrize("cls", ["PPO", SyncFreePPO])
-def test_setting_the_learning_rate_reaches_the_optimizer(cls):
+@pytest.mark.parametrize("update", ["rsl_rl", "sync_free"])
+def test_setting_the_learning_rate_reaches_the_optimizer(update):
     """What the critic warm-up does before and after its iterations: the update's learning rate, kept where the
-    update adapts it (a float, or SyncFreePPO's device tensor, written in place)."""
+    update adapts it (a float, or the sync-free update's device tensor, written in place)."""
     from agile.run.train import set_learning_rate
 
-    algorithm = make_algorithm(cls, 0.01)
+    algorithm = make_algorithm(update, 0.01)
     set_learning_rate(algorithm, 3.0e-4)
     assert algorithm.learning_rate == pytest.approx(3.0e-4)
     assert float(algorithm.optimizer.param_groups[0]["lr"]) == pytest.approx(3.0e-4)
-    if cls is SyncFreePPO:
+    if update == "sync_free":
         assert algorithm.optimizer.param_groups[0]["lr"] is algorithm.learning_rate_t
         fill_rollout(algorithm)
         algorithm.update()  # the update reports the rate it adapted, from 3e-4
@@ -193,12 +195,12 @@ def test_setting_the_learning_rate_reaches_the_optimizer(cls):
 
 
 def test_what_the_captured_graph_baked_in_is_in_its_key_and_the_normalisers_go_back_to_its_tensors():
-    """CapturedPPO keeps its graph while `graph_is_current()`: it is not after a change with a Python-number setting of the step,
+    """The captured update keeps its graph while `graph_is_current()`: it is not after a change with a Python-number setting of the step,
     of which parameters learn or of the optimizer's state tensors, and is after one of the learning rate's log mirror;
     and
     `rebind_buffers` puts the tensors the graph read back into the normalisers, with the values that replaced them
     (CPU: the bookkeeping only, no graph)."""
-    algorithm = make_algorithm(CapturedPPO, 0.01)
+    algorithm = make_algorithm("captured", 0.01)
     fill_rollout(algorithm)
     algorithm.update()  # the optimizer's state exists from here on
     algorithm.graph = "a graph"  # what graph_is_current compares against, as after a capture
@@ -231,8 +233,8 @@ def test_what_the_captured_graph_baked_in_is_in_its_key_and_the_normalisers_go_b
 @pytest.mark.gpu
 def test_the_captured_update_matches_the_eager_update_on_the_gpu():
     """Four updates (the first eager, then captured again each time: the entropy coefficient changes, a setting the
-    graph bakes in) against SyncFreePPO's eager updates; the normalisers learn between updates."""
-    eager, captured = make_algorithm(SyncFreePPO, 0.01, "cuda"), make_algorithm(CapturedPPO, 0.01, "cuda")
+    graph bakes in) against the sync-free update's eager updates; the normalisers learn between updates."""
+    eager, captured = make_algorithm("sync_free", 0.01, "cuda"), make_algorithm("captured", 0.01, "cuda")
     assert captured.captures
     captured.actor.load_state_dict(eager.actor.state_dict())
     captured.critic.load_state_dict(eager.critic.state_dict())
@@ -258,7 +260,7 @@ def test_the_captured_graph_is_kept_across_updates_and_memory_stays_flat_on_the_
     """Settings unchanged: one capture for eight updates that still match the eager updates (the normalisers learn
     a new std every rollout, which the kept graph must read), and the memory in use does not grow from update to
     update (captured afresh each time, a training kept ~0.85 GB of every update's graph and ran out of memory)."""
-    eager, captured = make_algorithm(SyncFreePPO, 0.01, "cuda"), make_algorithm(CapturedPPO, 0.01, "cuda")
+    eager, captured = make_algorithm("sync_free", 0.01, "cuda"), make_algorithm("captured", 0.01, "cuda")
     captured.actor.load_state_dict(eager.actor.state_dict())
     captured.critic.load_state_dict(eager.critic.state_dict())
     allocated = []

@@ -22,7 +22,7 @@ def test_recipe_overrides_come_first_and_the_given_ones_win():
                                             "agent.algorithm.desired_kl=0.015"])
     assert args.overrides == [*RECIPES["fast"], "agent.algorithm.desired_kl=0.015"]
     _, agent_cfg, _ = task_setup.load_task(**arguments.task_options(args))
-    assert agent_cfg.algorithm.class_name == "agile.rl.algorithms.captured_ppo:CapturedPPO"
+    assert agent_cfg.algorithm.captured_update is True
     assert agent_cfg.algorithm.use_mixed_precision is True and agent_cfg.float32_matmul_precision == "high"
     assert agent_cfg.algorithm.desired_kl == 0.015
 
@@ -39,5 +39,5 @@ def test_train_with_the_fast_recipe(tmp_path):
     assert code == 0, out + err
     (run_dir,) = (tmp_path / "velocity_t1").iterdir()
     agent = yaml.safe_load((run_dir / "params" / "agent.yaml").read_text())
-    assert agent["algorithm"]["class_name"].endswith("CapturedPPO") and agent["algorithm"]["desired_kl"] == 0.02
+    assert agent["algorithm"]["captured_update"] is True and agent["algorithm"]["desired_kl"] == 0.02
     assert list(run_dir.glob("model_*.pt"))  # trained and saved

@@ -1,6 +1,6 @@
 """AGILE's reward normalisation (RewardNormalization): the scale makes i.i.d. returns about unit-variance, outliers are
 clipped, the return-scale correction follows the measured returns, the stored rewards are the scaled ones, it
-composes with any PPO class, survives a checkpoint, and bad settings name the field (CPU, on a fake env)."""
+composes with the other PPO extensions, survives a checkpoint, and bad settings name the field (CPU, on a fake env)."""
 
 from __future__ import annotations
 
@@ -12,11 +12,11 @@ from rsl_rl.algorithms import PPO
 from tensordict import TensorDict
 
 from agile.rl import PpoAlgorithmCfg, to_rsl_rl_dict
-from agile.rl.algorithms.entropy_annealing import EntropyAnnealingPPO
-from agile.rl.algorithms.extended_ppo import extended
+from agile.rl.algorithms.entropy_annealing import EntropyAnnealing
 from agile.rl.algorithms.reward_normalization import STATE_KEY, ReturnVarianceNormalizer, RewardNormalization
-from agile.rl.configs import RewardNormalizationCfg, with_extensions
-from agile.rl.algorithms.sync_free_ppo import SyncFreePPO
+from agile.rl.algorithms.sync_free_update import SyncFreeUpdate
+from agile.rl.configs import RewardNormalizationCfg
+from agile.rl.extensions import compose_algorithm, extended
 from agile.utils.config import ConfigError
 from ppo_fakes import ppo_algorithm
 
@@ -62,13 +62,13 @@ def test_the_return_correction_moves_towards_unit_spread_of_the_scaled_returns()
 
 def runner_algorithm_dict(class_name: str, reward_normalization: dict | None) -> dict:
     algorithm = {"class_name": class_name, "gamma": GAMMA, "reward_normalization": reward_normalization}
-    with_extensions(algorithm)
+    compose_algorithm(algorithm)
     return algorithm
 
 
-def make_algorithm(class_name: str = "PPO", reward_normalization: dict | None = None):
+def make_algorithm(class_name: str = "PPO", reward_normalization: dict | None = None, **switches):
     return ppo_algorithm(class_name, NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS, gamma=GAMMA,
-                         reward_normalization=reward_normalization)
+                         reward_normalization=reward_normalization, **switches)
 
 
 def rollout(algorithm, generator: torch.Generator) -> list[torch.Tensor]:
@@ -83,20 +83,20 @@ def rollout(algorithm, generator: torch.Generator) -> list[torch.Tensor]:
     return raw
 
 
-@pytest.mark.parametrize("base", [PPO, EntropyAnnealingPPO, SyncFreePPO])
-def test_any_ppo_class_stores_scaled_rewards(base):
-    path = {PPO: "PPO", EntropyAnnealingPPO: "agile.rl.algorithms.entropy_annealing:EntropyAnnealingPPO",
-            SyncFreePPO: "agile.rl.algorithms.sync_free_ppo:SyncFreePPO"}[base]
-    algorithm = make_algorithm(path, {"decay": 0.5, "return_scale_decay": None})
-    assert isinstance(algorithm, base) and isinstance(algorithm, RewardNormalization)
-    assert type(algorithm).__name__ == f"RewardNormalization{base.__name__}"
+@pytest.mark.parametrize("switches, mixins", [({}, (RewardNormalization,)),
+                                              ({"entropy_annealing": {}}, (EntropyAnnealing, RewardNormalization)),
+                                              ({"sync_free_update": True}, (RewardNormalization, SyncFreeUpdate))])
+def test_alone_or_with_another_extension_it_stores_scaled_rewards(switches, mixins):
+    algorithm = make_algorithm("PPO", {"decay": 0.5, "return_scale_decay": None}, **switches)
+    assert type(algorithm).__mro__[1:len(mixins) + 1] == mixins and isinstance(algorithm, PPO)
+    assert type(algorithm).__name__ == "".join(m.__name__ for m in mixins) + "PPO"
     raw = rollout(algorithm, torch.Generator().manual_seed(1))
     stored = algorithm.storage.rewards.squeeze(-1)
     # every stored step is its raw rewards divided by one scale (that step's), well under the raw 50 +- 20
     ratios = stored / torch.stack(raw)
     assert torch.allclose(ratios, ratios[:, :1].expand_as(ratios), rtol=1e-5)
     assert float(stored.abs().max()) < 10.0
-    assert extended(base, (RewardNormalization,)) is type(algorithm)  # one class per combination
+    assert extended(PPO, mixins) is type(algorithm)  # one class per combination
     algorithm.update()
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import field
 
-from agile.rl.compat import current_name
+from agile.rl.compat import current_name, with_current_names
 from agile.utils.config import ConfigError, configclass, to_dict
 
 
@@ -38,18 +38,6 @@ class RnnModelCfg(MlpModelCfg):
     """One of RNN_TYPES."""
     rnn_hidden_dim: int = 256
     rnn_num_layers: int = 1
-
-
-def checked_cfg(cls, values: dict, name: str):
-    """An algorithm extension's config (`cls`, a dataclass with `check()`) from the dict the runner's config carries
-    under `name`: an unknown field is named with the valid ones, a bad value by `check()`."""
-    fields = list(cls.__dataclass_fields__)
-    unknown = sorted(set(values) - set(fields))
-    if unknown:
-        raise ConfigError(f"{name}: unknown {unknown}; its fields: {fields}")
-    cfg = cls(**values)
-    cfg.check()
-    return cfg
 
 
 @configclass
@@ -91,35 +79,6 @@ class L2C2Cfg:
 
 
 @configclass
-class PpoAlgorithmCfg:
-    class_name: str = "PPO"
-    learning_rate: float = 1.0e-3
-    num_learning_epochs: int = 5
-    num_mini_batches: int = 4
-    schedule: str = "adaptive"
-    desired_kl: float = 0.01
-    gamma: float = 0.99
-    lam: float = 0.95
-    clip_param: float = 0.2
-    entropy_coef: float = 0.005
-    value_loss_coef: float = 1.0
-    max_grad_norm: float = 1.0
-    use_clipped_value_loss: bool = True
-    use_mixed_precision: bool = False
-    """rsl-rl's bf16 autocast of the update's forward passes (the weights and the optimizer stay FP32): fewer bytes
-    and faster matrix products where the update is arithmetic (docs/benchmarks.md); off as AGILE trains."""
-    symmetry_cfg: dict | None = None
-    """RSL-RL symmetry extension, e.g. {"use_data_augmentation": True, "use_mirror_loss": False,
-    "mirror_loss_coeff": 0.0, "data_augmentation_func": "agile.rl_env.mdp.symmetry:lr_mirror"}."""
-    reward_normalization: RewardNormalizationCfg | None = None
-    """AGILE's reward normalisation (`agile.rl.algorithms.reward_normalization`): the stored rewards scaled towards
-    unit-variance returns. None: raw rewards (rsl-rl's PPO)."""
-    l2c2: L2C2Cfg | None = None
-    """AGILE's L2C2 smoothness term (`agile.rl.algorithms.l2c2`; needs class_name SyncFreePPO or CapturedPPO). None:
-    none."""
-
-
-@configclass
 class EntropyAnnealingCfg:
     """AGILE's entropy-coefficient annealing (`agile.rl.algorithms.entropy_annealing`): from `start_iteration` on,
     each iteration whose ended episodes lasted on average more than `min_episode_length_share` of the episode
@@ -146,11 +105,43 @@ class EntropyAnnealingCfg:
 
 
 @configclass
-class AnnealedPpoAlgorithmCfg(PpoAlgorithmCfg):
-    """PPO with AGILE's entropy-coefficient annealing."""
+class PpoAlgorithmCfg:
+    """rsl-rl's PPO and agile's extensions of it, each switched on here (`agile.rl.extensions` composes the class)."""
 
-    class_name: str = "agile.rl.algorithms.entropy_annealing:EntropyAnnealingPPO"
-    entropy_annealing: EntropyAnnealingCfg = field(default_factory=EntropyAnnealingCfg)
+    class_name: str = "PPO"
+    """rsl-rl's PPO, or a class derived from it (module:Class): the extensions switched on go in front of it."""
+    learning_rate: float = 1.0e-3
+    num_learning_epochs: int = 5
+    num_mini_batches: int = 4
+    schedule: str = "adaptive"
+    desired_kl: float = 0.01
+    gamma: float = 0.99
+    lam: float = 0.95
+    clip_param: float = 0.2
+    entropy_coef: float = 0.005
+    value_loss_coef: float = 1.0
+    max_grad_norm: float = 1.0
+    use_clipped_value_loss: bool = True
+    use_mixed_precision: bool = False
+    """rsl-rl's bf16 autocast of the update's forward passes (the weights and the optimizer stay FP32): fewer bytes
+    and faster matrix products where the update is arithmetic (docs/benchmarks.md); off as AGILE trains."""
+    symmetry_cfg: dict | None = None
+    """RSL-RL symmetry extension, e.g. {"use_data_augmentation": True, "use_mirror_loss": False,
+    "mirror_loss_coeff": 0.0, "data_augmentation_func": "agile.rl_env.mdp.symmetry:lr_mirror"}."""
+    reward_normalization: RewardNormalizationCfg | None = None
+    """AGILE's reward normalisation (`agile.rl.algorithms.reward_normalization`): the stored rewards scaled towards
+    unit-variance returns. None: raw rewards (rsl-rl's PPO)."""
+    l2c2: L2C2Cfg | None = None
+    """AGILE's L2C2 smoothness term (`agile.rl.algorithms.l2c2`; needs sync_free_update or captured_update). None:
+    none."""
+    entropy_annealing: EntropyAnnealingCfg | None = None
+    """AGILE's entropy-coefficient annealing (`agile.rl.algorithms.entropy_annealing`). None: a fixed coefficient."""
+    sync_free_update: bool = False
+    """rsl-rl's PPO update without a host synchronisation: the same math, the learning rate adapted on the device
+    (`agile.rl.algorithms.sync_free_update`); feed-forward models, Adam, no RND."""
+    captured_update: bool = False
+    """The sync-free update with its mini-batch step replayed as one CUDA graph (`agile.rl.algorithms.captured_update`;
+    on a CPU it runs eagerly): implies sync_free_update."""
 
 
 @configclass
@@ -232,7 +223,8 @@ class DistillationAlgorithmCfg:
     """rsl-rl's Distillation (DAgger-style behaviour cloning of a teacher's actions), through agile's subclass
     that adds an optional left-right mirror loss (rsl-rl refuses its symmetry extension for distillation)."""
 
-    class_name: str = "agile.rl.algorithms.distillation:Distillation"
+    class_name: str = "Distillation"
+    """rsl-rl's Distillation, or a class derived from it; `mirror_loss_coeff` > 0 puts agile's mirror loss in front."""
     num_learning_epochs: int = 5
     gradient_length: int = 15
     """Steps of the rollout between gradient steps (truncated backpropagation through time for an RNN)."""
@@ -240,7 +232,8 @@ class DistillationAlgorithmCfg:
     max_grad_norm: float | None = 1.0
     loss_type: str = "mse"
     mirror_loss_coeff: float = 0.0
-    """Weight of |student(mirrored obs) - mirrored student(obs)|², for a non-recurrent student."""
+    """Weight of |student(mirrored obs) - mirrored student(obs)|², for a non-recurrent student
+    (`agile.rl.algorithms.distillation.MirrorLoss`); 0: none."""
     mirror_func: str | None = None
     """e.g. "agile.rl_env.mdp.symmetry:lr_mirror"; needed when mirror_loss_coeff > 0."""
 
@@ -287,35 +280,11 @@ RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "teacher_task",
                     "critic_warmup_iterations", "critic_warmup_learning_rate", "float32_matmul_precision")
 
 
-EXTENSIONS = {"reward_normalization": (RewardNormalizationCfg, "agile.rl.algorithms.reward_normalization:RewardNormalization"),
-              "l2c2": (L2C2Cfg, "agile.rl.algorithms.l2c2:L2C2")}
-"""The PPO settings that add a mixin in front of the configured class: key -> (its config, the mixin), outermost
-first."""
-
-
-def with_extensions(algorithm: dict) -> None:
-    """The algorithm config's class becomes the configured PPO class with the mixins of the extensions it sets in
-    front (a class object: rsl-rl takes one as `class_name`); the keys of those it leaves None go (rsl-rl's PPO
-    takes no such argument). A bad field is named here, before any runner is built."""
-    from rsl_rl.utils import resolve_callable
-
-    from agile.rl.algorithms.extended_ppo import extended
-
-    mixins = []
-    for key, (cfg_class, mixin) in EXTENSIONS.items():
-        if key not in algorithm:
-            continue
-        if algorithm[key] is None:
-            algorithm.pop(key)
-            continue
-        checked_cfg(cfg_class, algorithm[key], key)
-        mixins.append(resolve_callable(mixin))
-    if mixins:
-        algorithm["class_name"] = extended(resolve_callable(algorithm["class_name"]), tuple(mixins))
-
-
 def to_rsl_rl_dict(cfg: RunnerCfg) -> dict:
-    """The train_cfg dict of `rsl_rl.runners.OnPolicyRunner` (keys of ours that it does not know removed)."""
+    """The train_cfg dict of `rsl_rl.runners.OnPolicyRunner` (keys of ours that it does not know removed; the algorithm's
+    extensions composed into its class, `agile.rl.extensions`)."""
+    from agile.rl.extensions import compose_algorithm
+
     if is_distillation(cfg):
         if cfg.algorithm.mirror_loss_coeff > 0.0 and cfg.algorithm.mirror_func is None:
             raise ConfigError("algorithm.mirror_loss_coeff > 0 needs algorithm.mirror_func")
@@ -326,15 +295,11 @@ def to_rsl_rl_dict(cfg: RunnerCfg) -> dict:
         # rsl-rl builds an LSTM for any rnn_type other than "gru", so a typo would silently train an LSTM
         if isinstance(model, RnnModelCfg) and model.rnn_type not in RNN_TYPES:
             raise ConfigError(f"rnn_type '{model.rnn_type}' is not one of {RNN_TYPES}")
-    annealing = getattr(cfg.algorithm, "entropy_annealing", None)
-    if annealing is not None:
-        annealing.check()
     check_matmul_precision(cfg)
     d = to_dict(cfg)
     for key in RUNNER_ONLY_KEYS:
         d.pop(key, None)
-    d["algorithm"]["class_name"] = current_name(d["algorithm"]["class_name"])
-    with_extensions(d["algorithm"])
+    compose_algorithm(with_current_names(d["algorithm"]))
     for model in ("student", "teacher") if is_distillation(cfg) else ("actor", "critic"):
         d[model]["class_name"] = current_name(d[model]["class_name"])
         if d[model].get("distribution_cfg") is None:

@@ -16,9 +16,11 @@ from __future__ import annotations
 import torch
 from rsl_rl.modules.distribution import GaussianDistribution
 
+from agile.rl.rsl_rl_adapter import gaussian_mean_std
+
 
 class SyncFreeGaussianDistribution(GaussianDistribution):
     def sample(self) -> torch.Tensor:
-        mean, std = self._distribution.loc, self._distribution.scale
+        mean, std = gaussian_mean_std(self)
         with torch.no_grad():
             return torch.randn_like(mean).mul_(std).add_(mean)

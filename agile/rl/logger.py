@@ -25,15 +25,7 @@ import time
 import torch
 from rsl_rl.utils.logger import Logger
 
-
-def rebuilt_logger(cls, logger: Logger, runner) -> Logger:
-    """The runner's logger (log dir, config, buffers) as a `cls`, built with the arguments the runner gave its own,
-    before training starts (rsl-rl creates the tensorboard writer in `learn`)."""
-    new = cls(log_dir=logger.log_dir, cfg=logger.cfg, env_cfg=logger.env_cfg, num_envs=logger.num_envs,
-              is_distributed=runner.is_distributed, gpu_world_size=runner.gpu_world_size,
-              gpu_global_rank=runner.gpu_global_rank, device=logger.device)
-    new.git_status_repos = logger.git_status_repos
-    return new
+from agile.rl.rsl_rl_adapter import logger_gathering_on_host
 
 
 STAMPS_KEPT = 1000
@@ -116,12 +108,8 @@ class SyncFreeLogger(Logger):
         if self.writer is None or not self.average_episode_extras():
             super().log(**kwargs)
             return
-        # rsl-rl's log gathers each key's values on `self.device` before averaging them; they are on the host now, so
-        # it gathers them there (the logger's device is read nowhere else in `log`). The action std is read twice: once.
+        # the extras are on the host now, so rsl-rl's log gathers them there. The action std is read twice: once.
         if isinstance(kwargs.get("action_std"), torch.Tensor):
             kwargs["action_std"] = kwargs["action_std"].mean().cpu()
-        device, self.device = self.device, torch.device("cpu")
-        try:
+        with logger_gathering_on_host(self):
             super().log(**kwargs)
-        finally:
-            self.device = device

@@ -14,10 +14,10 @@ import io
 import re
 import statistics
 
-from rsl_rl.utils.logger import Logger
 from tqdm import tqdm
 
-from agile.rl.logger import SyncFreeLogger, rebuilt_logger
+from agile.rl.logger import SyncFreeLogger
+from agile.rl.rsl_rl_adapter import rebuilt_logger
 
 PROGRESS_MODES = ("auto", "bar", "log")
 """bar: the progress line; log: rsl-rl's block every iteration (log files); auto: bar on a terminal, else log."""
@@ -37,7 +37,7 @@ class PlainLogger(SyncFreeLogger):
 
 
 class ProgressLogger(SyncFreeLogger):
-    """rsl-rl's logger with a progress bar; built from the runner's own logger (`from_logger`)."""
+    """rsl-rl's logger with a progress bar; built from the runner's own logger (`from_runner`)."""
 
     full_log_every: int = 100
     total_iterations: int | None = None
@@ -45,11 +45,10 @@ class ProgressLogger(SyncFreeLogger):
     bar: tqdm | None = None
 
     @classmethod
-    def from_logger(cls, logger: Logger, runner, full_log_every: int,
-                    total_iterations: int | None = None) -> ProgressLogger:
+    def from_runner(cls, runner, full_log_every: int, total_iterations: int | None = None) -> ProgressLogger:
         """The same logger (`rebuilt_logger`) showing a bar. Without `total_iterations`, the bar is as long as the
         first `learn` call."""
-        progress = rebuilt_logger(cls, logger, runner)
+        progress = rebuilt_logger(cls, runner)
         progress.full_log_every = full_log_every
         progress.total_iterations = total_iterations
         return progress
@@ -82,6 +81,6 @@ def show_progress(runner, mode: str, full_log_every: int, is_terminal: bool, tot
     if mode not in PROGRESS_MODES:
         raise ValueError(f"progress mode '{mode}': choose one of {PROGRESS_MODES}")
     if mode == "bar" or (mode == "auto" and is_terminal):
-        runner.logger = ProgressLogger.from_logger(runner.logger, runner, full_log_every, total_iterations)
+        runner.logger = ProgressLogger.from_runner(runner, full_log_every, total_iterations)
     elif not is_terminal:
-        runner.logger = rebuilt_logger(PlainLogger, runner.logger, runner)
+        runner.logger = rebuilt_logger(PlainLogger, runner)

@@ -9,19 +9,21 @@ import os
 import torch
 from rsl_rl.runners import DistillationRunner, OnPolicyRunner
 
-from agile.rl.logger import SyncFreeLogger, rebuilt_logger
+from agile.rl.logger import SyncFreeLogger
+from agile.rl.rsl_rl_adapter import CpuRanksRunnerMixin, rebuilt_logger
 from agile.utils.heap import heap_frozen
 
 
-class CheckpointingRunner(OnPolicyRunner):
+class CheckpointingRunner(CpuRanksRunnerMixin, OnPolicyRunner):
     """rsl-rl's runner, with checkpoints written whole or not at all (a temporary file, then renamed) and holding
     the env's training state (`infos["env_state"]`, from the env's `training_state()` where it has one) and the
     config overrides the run was started with (`infos["overrides"]`: what `agile eval` and a resume compare their
-    own against), and a logger that does not synchronise with the GPU at every env step (`SyncFreeLogger`)."""
+    own against), and a logger that does not synchronise with the GPU at every env step (`SyncFreeLogger`); CPU
+    ranks train across processes too, with gloo (`CpuRanksRunnerMixin`)."""
 
     def __init__(self, *args, overrides: tuple[str, ...] | list[str] = (), **kwargs):
         super().__init__(*args, **kwargs)
-        self.logger = rebuilt_logger(SyncFreeLogger, self.logger, self)
+        self.logger = rebuilt_logger(SyncFreeLogger, self)
         self.overrides = list(overrides)
         """The run's "env.<path>=<value>" and "agent.<path>=<value>" overrides, a recipe's included, in order."""
 
@@ -44,20 +46,6 @@ class CheckpointingRunner(OnPolicyRunner):
         """rsl-rl's `learn`, with what exists when it starts out of the garbage collector's whole-heap passes
         (`agile.utils.heap`: a pass over a simulator's process takes about a second)."""
         return super().learn(*args, **kwargs)
-
-    def _configure_multi_gpu(self) -> None:
-        """rsl-rl's multi-GPU set-up (NCCL, one CUDA device per rank), extended to CPU ranks with gloo."""
-        from agile.rl.distributed import init_cpu_process_group, rank_from_env
-
-        rank = rank_from_env()
-        if rank is None or not str(self.device).startswith("cpu"):
-            super()._configure_multi_gpu()
-            return
-        self.gpu_world_size, self.is_distributed = rank.world_size, True
-        self.gpu_local_rank, self.gpu_global_rank = rank.local_rank, rank.rank
-        self.cfg["multi_gpu"] = {"global_rank": rank.rank, "local_rank": rank.local_rank,
-                                 "world_size": rank.world_size}
-        init_cpu_process_group(rank)
 
 
 class CheckpointingDistillationRunner(CheckpointingRunner, DistillationRunner):

@@ -70,6 +70,7 @@ def train(args, rank):
     from agile.run.train import TrainResult, run_configs
     from agile.rl.checkpoints import restore_runner
     from agile.rl.progress import show_progress
+    from agile.rl.rsl_rl_adapter import set_git_status_repos
     from agile.utils.config import ConfigError
 
     check_train_args(args)
@@ -102,7 +103,7 @@ def train(args, rank):
     if args.progress == "bar":
         print("[agile] --progress bar: a multi-agent run prints each group's block every iteration instead")
     for group_runner in runner.runners.values():
-        group_runner.logger.git_status_repos = task_setup.git_repos()
+        set_git_status_repos(group_runner, task_setup.git_repos())
         # rsl-rl's block every iteration; into a file without its terminal escape codes
         show_progress(group_runner, "log", args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
     runner.learn(agent_cfg.max_iterations)

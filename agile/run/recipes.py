@@ -9,7 +9,7 @@ RECIPES: dict[str, tuple[str, ...]] = {
     # Velocity-T1-v0 from scratch met its criteria in 276 s on one H100 with it (warm kernel cache), 119 s on four
     # (`--gpus 4 agent.num_steps_per_env=6`); Velocity-G1-History-v0 in 270 s on one with the same batch as 8,192
     # envs x 12 steps (`--num_envs 8192 agent.num_steps_per_env=12`: iterations 0.30 s instead of 0.42)
-    "fast": ("agent.algorithm.class_name=agile.rl.algorithms.captured_ppo:CapturedPPO",
+    "fast": ("agent.algorithm.captured_update=true",
              "agent.float32_matmul_precision=high",
              "agent.algorithm.use_mixed_precision=true",
              "agent.algorithm.desired_kl=0.02"),

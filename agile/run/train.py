@@ -39,7 +39,7 @@ MANY_CPU_ENVS = 256
 
 def set_learning_rate(algorithm, learning_rate: float) -> None:
     """The PPO algorithm's learning rate, as its adaptive schedule sets it (the attribute and every group). A
-    group's learning rate held as a tensor (SyncFreePPO adapts it on the device) is written in place."""
+    group's learning rate held as a tensor (the sync-free update adapts it on the device) is written in place."""
     import torch
 
     algorithm.learning_rate = learning_rate
@@ -216,6 +216,7 @@ def build_runner(options: TrainOptions, env, agent_cfg, log_dir: str | None):
     """The training runner over `env` (NaN actions injected where asked; on a CPU the first env step is timed)."""
     from agile.rl.runner import training_runner
     from agile.rl.progress import show_progress
+    from agile.rl.rsl_rl_adapter import set_git_status_repos
 
     wrap = None
     if options.inject_nan_actions is not None:
@@ -230,8 +231,8 @@ def build_runner(options: TrainOptions, env, agent_cfg, log_dir: str | None):
         wrap = partial(FirstStepTimingVecEnv, steps_per_iteration=agent_cfg.num_steps_per_env)
     with task_setup.quiet_stdout():
         runner = training_runner(env, agent_cfg, log_dir, wrap, overrides=list(options.overrides))
-    print(f"[agile] algorithm: {type(runner.alg).__name__}")  # e.g. RewardNormalizationL2C2SyncFreePPO: extensions too
-    runner.logger.git_status_repos = task_setup.git_repos()
+    print(f"[agile] algorithm: {type(runner.alg).__name__}")  # its extensions in the name
+    set_git_status_repos(runner, task_setup.git_repos())
     if log_dir is not None:
         show_progress(runner, options.progress, options.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
     return runner

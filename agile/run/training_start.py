@@ -40,13 +40,13 @@ def check_rank_weights(runner, rank) -> None:
     all-reduces every gradient, so a difference means the ranks fell out of step)."""
     import torch
 
-    from agile.rl.algorithms.captured_ppo import CapturedPPO
+    from agile.rl.algorithms.captured_update import CapturedUpdate
     from agile.rl.distributed import gather_digests, weights_digest
 
     digest = weights_digest(runner.alg.save())
     print(f"[agile] rank {rank.rank}: weights sha256 {digest}", flush=True)
     digests = gather_digests(digest)
-    if isinstance(runner.alg, CapturedPPO):
+    if isinstance(runner.alg, CapturedUpdate):
         runner.alg.release_graph()  # a live graph with NCCL kernels in it makes the destroy below hang
     torch.distributed.destroy_process_group()
     if len(set(digests)) != 1:

@@ -154,7 +154,7 @@ def iteration_times(stamps_s: list[float]) -> dict:
 def time_training(runner, iterations: int) -> dict:
     """Everything above for a fresh training runner (see the module's docstring); `iterations` >= 2."""
     runner.learn(1)  # warm-up: allocations, first update
-    captures_before = getattr(runner.alg, "captures_made", 0)  # a captured PPO update (CapturedPPO) records anew
+    captures_before = getattr(runner.alg, "captures_made", 0)  # a captured PPO update (captured_update) records anew
     with FullGarbageCollections() as collections:
         run_s = timed_learn(runner, iterations)
     stamps_s = [stamp for _, stamp in runner.logger.iteration_stamps_s][-iterations:]

@@ -83,6 +83,18 @@ class ConfigError(AgileError, ValueError):
     """A config field is missing, misspelt or of the wrong type."""
 
 
+def checked_cfg(cls, values: dict, name: str):
+    """A settings dataclass `cls` (with `check()`) from the dict a config carries under `name` (an algorithm
+    extension's settings): an unknown field is named with the valid ones, a bad value by `check()`."""
+    fields = list(cls.__dataclass_fields__)
+    unknown = sorted(set(values) - set(fields))
+    if unknown:
+        raise ConfigError(f"{name}: unknown {unknown}; its fields: {fields}")
+    cfg = cls(**values)
+    cfg.check()
+    return cfg
+
+
 def parse_value(text: str):
     """Python literal if it parses as one (numbers, bools, None, tuples, lists, dicts), else the string."""
     try:

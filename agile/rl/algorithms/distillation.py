@@ -2,7 +2,8 @@
 
 Two additions, both outside rsl-rl's code:
 - a mirror loss for non-recurrent students (AGILE's history student): rsl-rl refuses its symmetry extension
-  for distillation, so `Distillation` here adds |student(mirror(obs)) - mirror(student(obs))|² itself;
+  for distillation, so `MirrorLoss` here adds |student(mirror(obs)) - mirror(student(obs))|² itself (switched on by
+  the config's `mirror_loss_coeff` > 0: `agile.rl.extensions`);
 - a teacher from a TorchScript export (`load_teacher`), not only from a PPO checkpoint: an exported MLP policy
   holds the same normaliser and MLP weights as the actor it came from, so they load into the teacher model.
 """
@@ -11,33 +12,33 @@ from __future__ import annotations
 
 import torch
 import torch.nn as nn
-from rsl_rl.algorithms import Distillation as RslRlDistillation
 from rsl_rl.utils import resolve_callable
 
 from agile.rl.checkpoints import load_checkpoint, restore_runner
+from agile.rl.rsl_rl_adapter import distillation_teacher
 
 
-class Distillation(RslRlDistillation):
-    """rsl-rl's Distillation with an optional mirror loss (`mirror_loss_coeff`, `mirror_func(env, obs,
-    actions) -> ([obs; mirrored], [actions; mirrored])`, e.g. agile.rl_env.mdp.symmetry:lr_mirror)."""
+class MirrorLoss:
+    """rsl-rl's Distillation with a mirror loss (`mirror_loss_coeff` > 0, `mirror_func(env, obs, actions) -> ([obs;
+    mirrored], [actions; mirrored])`, e.g. agile.rl_env.mdp.symmetry:lr_mirror). A mixin: in front of rsl-rl's
+    Distillation (`agile.rl.extensions` puts it there when the config's `mirror_loss_coeff` > 0)."""
 
     mirror_loss_coeff: float = 0.0
     mirror_func = None
     env = None
 
-    @staticmethod
-    def construct_algorithm(obs, env, cfg: dict, device: str) -> Distillation:
+    @classmethod
+    def construct_algorithm(cls, obs, env, cfg: dict, device: str):
         # rsl-rl passes every algorithm key to the constructor: take ours out first (in place: the runner keeps
         # `cfg`, and rsl-rl writes the resolved observation groups into it)
-        coeff = cfg["algorithm"].pop("mirror_loss_coeff", 0.0)
+        coeff = cfg["algorithm"].pop("mirror_loss_coeff")
         func = cfg["algorithm"].pop("mirror_func", None)
-        alg = RslRlDistillation.construct_algorithm(obs, env, cfg, device)
-        if coeff > 0.0:
-            if alg.student.is_recurrent:
-                raise ValueError("the mirror loss needs a non-recurrent student")
-            alg.mirror_loss_coeff = coeff
-            alg.mirror_func = resolve_callable(func)
-            alg.env = env
+        alg = super().construct_algorithm(obs, env, cfg, device)
+        if alg.student.is_recurrent:
+            raise ValueError("the mirror loss needs a non-recurrent student")
+        alg.mirror_loss_coeff = coeff
+        alg.mirror_func = resolve_callable(func)
+        alg.env = env
         return alg
 
     def _mirror_loss(self, observations, actions: torch.Tensor) -> torch.Tensor:
@@ -47,8 +48,6 @@ class Distillation(RslRlDistillation):
         return nn.functional.mse_loss(self.student(mirrored_obs[n:]), mirrored_actions[n:])
 
     def update(self) -> dict[str, float]:
-        if self.mirror_loss_coeff == 0.0:
-            return super().update()
         # rsl-rl's update (non-recurrent student: no hidden state to carry), with the mirror loss added
         self.num_updates += 1
         # the losses are summed on the device and read once per update, not once per batch
@@ -78,18 +77,20 @@ class Distillation(RslRlDistillation):
         self.storage.clear()
         return {"behavior": behavior_sum.item() / count, "mirror": mirror_sum.item() / count}
 
-    def load_teacher_weights(self, state_dict: dict[str, torch.Tensor], source: str) -> None:
-        """Load an exported policy's weights into the teacher: every exported weight must have its place and
-        every teacher weight but the action distribution's (not exported) must be given."""
-        expected = set(self._raw_teacher.state_dict())
-        given = set(state_dict)
-        missing = sorted(k for k in expected - given if not k.startswith("distribution."))
-        unexpected = sorted(given - expected)
-        if missing or unexpected:
-            raise ValueError(f"teacher {source} does not match the teacher model (agent.teacher): missing "
-                             f"{missing}, unexpected {unexpected}")
-        self._raw_teacher.load_state_dict(state_dict, strict=False)
-        self.teacher_loaded = True
+
+def load_teacher_weights(algorithm, state_dict: dict[str, torch.Tensor], source: str) -> None:
+    """Load an exported policy's weights into a distillation's teacher: every exported weight must have its place and
+    every teacher weight but the action distribution's (not exported) must be given."""
+    teacher = distillation_teacher(algorithm)
+    expected = set(teacher.state_dict())
+    given = set(state_dict)
+    missing = sorted(k for k in expected - given if not k.startswith("distribution."))
+    unexpected = sorted(given - expected)
+    if missing or unexpected:
+        raise ValueError(f"teacher {source} does not match the teacher model (agent.teacher): missing "
+                         f"{missing}, unexpected {unexpected}")
+    teacher.load_state_dict(state_dict, strict=False)
+    algorithm.teacher_loaded = True
 
 
 def is_torchscript(path: str) -> bool:
@@ -107,7 +108,7 @@ def load_teacher(runner, path: str, trust: bool = False) -> None:
     that actor's TorchScript export (train.py writes exported/policy.pt; agile ships one per teacher)."""
     if is_torchscript(path):
         module = torch.jit.load(path, map_location="cpu")
-        runner.alg.load_teacher_weights(dict(module.state_dict()), path)
+        load_teacher_weights(runner.alg, dict(module.state_dict()), path)
         return
     checkpoint = load_checkpoint(path, "cpu", trust=trust)
     if "actor_state_dict" not in checkpoint:

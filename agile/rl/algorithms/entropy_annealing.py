@@ -9,17 +9,16 @@ trained on comes closer to the mean action it is evaluated and deployed with. Pi
 action the noise std grew to 1.24 without it.
 
 The coefficient is saved in checkpoints and restored on resume; a checkpoint without one (trained before) resumes
-at the configured coefficient. `EntropyAnnealing` is a mixin: put it before any PPO subclass in the bases
-(`EntropyAnnealingPPO` is the one for rsl-rl's PPO). Choose it with the runner config's
-`AnnealedPpoAlgorithmCfg(entropy_annealing=EntropyAnnealingCfg(...))`.
+at the configured coefficient. Switch it on with the PPO config's `entropy_annealing=EntropyAnnealingCfg(...)`
+(`agile.rl.extensions` puts the `EntropyAnnealing` mixin in front of the PPO class).
 """
 
 from __future__ import annotations
 
 import torch
-from rsl_rl.algorithms import PPO
 
-from agile.rl.configs import EntropyAnnealingCfg, checked_cfg
+from agile.rl.configs import EntropyAnnealingCfg
+from agile.utils.config import checked_cfg
 
 
 class EntropyAnnealing:
@@ -39,11 +38,11 @@ class EntropyAnnealing:
         self._episode_steps = torch.zeros(num_envs, device=self.device)
         self._ended = torch.zeros(2, device=self.device)  # summed lengths [steps] and count of the ended episodes
 
-    @staticmethod
-    def construct_algorithm(obs, env, cfg: dict, device: str):
+    @classmethod
+    def construct_algorithm(cls, obs, env, cfg: dict, device: str):
         """rsl-rl's construction, with the env's episode length passed to the algorithm."""
         cfg["algorithm"]["max_episode_length"] = int(env.max_episode_length)
-        return PPO.construct_algorithm(obs, env, cfg, device)
+        return super().construct_algorithm(obs, env, cfg, device)
 
     def process_env_step(self, obs, rewards, dones, extras) -> None:
         super().process_env_step(obs, rewards, dones, extras)
@@ -82,7 +81,3 @@ class EntropyAnnealing:
             self.iteration = int(loaded_dict["iter"]) + 1
             self.entropy_coef = float(loaded_dict.get("entropy_coef", self.entropy_coef))
         return load_iteration
-
-
-class EntropyAnnealingPPO(EntropyAnnealing, PPO):
-    """rsl-rl's PPO with the entropy coefficient annealed."""

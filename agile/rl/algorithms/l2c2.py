@@ -6,29 +6,28 @@ rollout as the mini-batch has samples, each at a random point s~ = s_t + u (s_t+
 
     lambda_actor * MSE(mu(s~), mu(s_t)) + lambda_critic * MSE(V(s~), V(s_t))
 
-(mean over the pairs and the entries; mu the action mean, V the value) to the PPO loss. Pairs across an episode's end (the step's
-`done`: the next observation is after a reset) count zero. Drawn on the device (no host synchronisation, and
-capturable: `CapturedPPO` replays it with new draws). Logged as `Loss/l2c2`. Under the bf16 autocast of
+(mean over the pairs and the entries; mu the action mean, V the value) to the PPO loss. Pairs across an episode's end
+(the step's `done`: the next observation is after a reset) count zero. Drawn on the device (no host synchronisation,
+and capturable: the captured update replays it with new draws). Logged as `Loss/l2c2`. Under the bf16 autocast of
 `use_mixed_precision` the outputs, and so their small differences, carry bf16's rounding; AGILE trains in float32.
 
-It needs the update's mini-batch step to take an extra loss term (`SyncFreePPO.regularization_loss`), so the PPO
-class must be `SyncFreePPO` or `CapturedPPO` (rsl-rl's own PPO has no place for it); feed-forward models only.
-Choose it with the PPO config's `l2c2=L2C2Cfg(...)`; `to_rsl_rl_dict` puts `L2C2` in front of the configured class.
+It needs the update's mini-batch step to take an extra loss term (`SyncFreeUpdate.regularization_loss`), so it needs
+`sync_free_update` or `captured_update` switched on (rsl-rl's own update has no place for it; `agile.rl.extensions`
+refuses the pair); feed-forward models only. Switch it on with the PPO config's `l2c2=L2C2Cfg(...)`.
 """
 
 from __future__ import annotations
 
 import torch
 
-from agile.rl.configs import L2C2Cfg, checked_cfg
-from agile.rl.algorithms.sync_free_ppo import SyncFreePPO
+from agile.rl.configs import L2C2Cfg
+from agile.utils.config import checked_cfg
 
 
 class L2C2:
-    """A SyncFreePPO with the L2C2 term in its loss (see the module). A mixin: in front of the PPO class."""
+    """The sync-free (or captured) update with the L2C2 term in its loss (see the module). A mixin: in front of theirs."""
 
     regularization_name = "l2c2"
-    needs_base = SyncFreePPO
 
     def __init__(self, *args, l2c2: dict | None = None, **kwargs):
         super().__init__(*args, **kwargs)

@@ -18,8 +18,8 @@ ones; the logs keep the raw rewards (the runner gives the logger its own). The s
 (`reward_normalizer_state_dict`) and restored on resume; a checkpoint without them (trained before) starts them afresh.
 Each GPU of a multi-GPU run keeps its own statistics. Everything stays on the device (no host synchronisation).
 
-Choose it with the PPO config's `reward_normalization=RewardNormalizationCfg(...)`; `to_rsl_rl_dict` then gives the
-runner the configured PPO class with `RewardNormalization` in front (`extended_ppo.extended`).
+Switch it on with the PPO config's `reward_normalization=RewardNormalizationCfg(...)`; `agile.rl.extensions` puts
+`RewardNormalization` in front of the PPO class.
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ import math
 import torch
 from torch import nn
 
-from agile.rl.configs import RewardNormalizationCfg, checked_cfg
-from agile.utils.config import ConfigError
+from agile.rl.configs import RewardNormalizationCfg
+from agile.utils.config import ConfigError, checked_cfg
 
 STATE_KEY = "reward_normalizer_state_dict"
 

@@ -12,6 +12,6 @@ def g1_height_tracking_ppo_runner_cfg() -> PpoRunnerCfg:
     # AGILE also normalises the rewards and adds L2C2. Both are built (`RewardNormalizationCfg()` and `L2C2Cfg()` in
     # `cfg.algorithm`, AGILE's settings) but off here: from the 19,000 resume point they drifted as the run without
     # them did (docs/stand_up.md, twenty-fourth session), and the shipped policy trained without them.
-    # SyncFreePPO is rsl-rl's PPO update, the same math.
-    cfg.algorithm.class_name = "agile.rl.algorithms.sync_free_ppo:SyncFreePPO"
+    # the sync-free update is rsl-rl's PPO update, the same math
+    cfg.algorithm.sync_free_update = True
     return cfg

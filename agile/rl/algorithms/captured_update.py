@@ -1,12 +1,12 @@
-"""SyncFreePPO whose mini-batch step runs as one CUDA graph: the same math, a few graph launches per update instead
+"""The sync-free PPO update whose mini-batch step runs as one CUDA graph: the same math, a few graph launches per update instead
 of a few thousand kernel launches from Python.
 
 An update of AGILE's PPO settings takes 20 mini-batch steps (5 epochs x 4 mini-batches), each a forward and backward
 pass of actor and critic over the mirrored batch, the clipped losses, gradient clipping and a fused Adam step: about
 a thousand small kernels, most of them shorter than the time Python takes to launch them. Here each update captures
 its first mini-batch step into a CUDA graph (the step reads its mini-batch from fixed buffers, into which each
-mini-batch is copied) and replays it for that and every later mini-batch. SyncFreePPO already keeps the step free
-of host synchronisation (the learning rate adapted on the device, the losses summed there), which capture needs.
+mini-batch is copied) and replays it for that and every later mini-batch. The sync-free update already keeps the step
+free of host synchronisation (the learning rate adapted on the device, the losses summed there), which capture needs.
 
 The graph is kept across updates and captured again only when something it baked in changes (`graph_is_current`): a
 setting the step reads as a Python number (the entropy coefficient an annealing schedule lowers, the clip range),
@@ -27,8 +27,9 @@ benchmark, under inference mode, captured its updates).
 Across several GPUs (`--distributed`) the graph holds the gradients' all-reduce and the KL's (NCCL collectives can
 be captured; the first, eager update creates the communicator): every rank captures at the same update, since the
 settings that trigger a capture are the same on every rank, and each replay meets the other ranks' replays in the
-collectives, as eager steps do. Select it with `agent.algorithm.class_name=agile.rl.algorithms.captured_ppo:CapturedPPO`.
-On a CPU it updates as SyncFreePPO does.
+collectives, as eager steps do. Switch it on with `agent.algorithm.captured_update=true` (`agile.rl.extensions`; it
+is the sync-free update, captured: `sync_free_update` may be on too). On a CPU it updates as the sync-free update
+does.
 """
 
 from __future__ import annotations
@@ -38,14 +39,17 @@ from itertools import chain
 import torch
 from rsl_rl.storage import RolloutStorage
 
-from agile.rl.algorithms.sync_free_ppo import LOSS_SUMS, SyncFreePPO
+from agile.rl.algorithms.sync_free_update import LOSS_SUMS, SyncFreeUpdate
 
 
-class CapturedPPO(SyncFreePPO):
+class CapturedUpdate(SyncFreeUpdate):
+    """The sync-free update, its mini-batch step captured and replayed (see the module). A mixin: in front of rsl-rl's
+    PPO."""
+
     def __init__(self, *args, device: str = "cpu", **kwargs):
         super().__init__(*args, device=device, **kwargs)
         self.captures = torch.device(self.device).type == "cuda"
-        """Whether updates replay a captured mini-batch step (else each step runs eagerly, as in SyncFreePPO)."""
+        """Whether updates replay a captured mini-batch step (else each step runs eagerly, as in the sync-free update)."""
         if self.captures:  # a graph replays Adam's step only if its step count lives on the device
             self.optimizer = torch.optim.Adam(chain(self.actor.parameters(), self.critic.parameters()),
                                               lr=self.learning_rate_t, fused=True, capturable=True)
@@ -65,7 +69,7 @@ class CapturedPPO(SyncFreePPO):
         """(module, buffer name, the tensor the graph reads) of every buffer of actor and critic at capture."""
         self.captures_made = 0
         self.sums = torch.zeros(LOSS_SUMS, device=self.device)
-        """The losses summed over an update's mini-batches (written by the graph; `sync_free_ppo.LOSS_SUMS`)."""
+        """The losses summed over an update's mini-batches (written by the graph; `sync_free_update.LOSS_SUMS`)."""
 
     def update(self) -> dict[str, float]:
         if not self.captures:

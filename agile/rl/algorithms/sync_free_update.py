@@ -8,8 +8,8 @@ updates in place (`torch.where`), Adam takes it as a tensor (fused Adam), and th
 read once at the end. The math is rsl-rl's: `tests/test_ppo_update.py` checks that losses, learning rate and
 parameters after an update match the plain update.
 
-Select it with `agent.algorithm.class_name=agile.rl.algorithms.sync_free_ppo:SyncFreePPO` (feed-forward actor and
-critic, no RND; recurrent models and RND are refused).
+Switch it on with `agent.algorithm.sync_free_update=true` (`agile.rl.extensions`; feed-forward actor and critic, no
+RND: recurrent models and RND are refused).
 """
 
 from __future__ import annotations
@@ -17,7 +17,6 @@ from __future__ import annotations
 from itertools import chain
 
 import torch
-from rsl_rl.algorithms import PPO
 from torch import nn
 
 LOSS_SUMS = 5
@@ -29,16 +28,19 @@ MAX_LEARNING_RATE = 1.0e-2
 """rsl-rl's bounds of the adaptive learning rate."""
 
 
-class SyncFreePPO(PPO):
+class SyncFreeUpdate:
+    """PPO's update without a host synchronisation (see the module). A mixin: in front of rsl-rl's PPO."""
+
     def __init__(self, actor, critic, storage, *args, learning_rate: float = 0.001, device: str = "cpu",
                  optimizer: str = "adam", **kwargs):
         if optimizer != "adam":
-            raise ValueError(f"SyncFreePPO updates with (fused) Adam, not '{optimizer}'; use class_name PPO")
+            raise ValueError(f"sync_free_update updates with (fused) Adam, not '{optimizer}'; switch it off for "
+                             f"another optimizer")
         super().__init__(actor, critic, storage, *args, learning_rate=learning_rate, device=device, **kwargs)
         if self.rnd is not None:
-            raise ValueError("SyncFreePPO has no RND; use class_name PPO")
+            raise ValueError("sync_free_update has no RND; switch it off to train with RND")
         if self.actor.is_recurrent or self.critic.is_recurrent:
-            raise ValueError("SyncFreePPO updates feed-forward models; use class_name PPO for a recurrent policy")
+            raise ValueError("sync_free_update updates feed-forward models; switch it off for a recurrent policy")
         self.learning_rate_t = torch.tensor(float(learning_rate), device=self.device)
         """The learning rate the optimizer reads, adapted on the device; `learning_rate` mirrors it for the log."""
         self.optimizer = torch.optim.Adam(chain(self.actor.parameters(), self.critic.parameters()),
@@ -93,7 +95,7 @@ class SyncFreePPO(PPO):
         with torch.amp.autocast(device_type=torch.device(self.device).type, enabled=self.use_mixed_precision,
                                 dtype=torch.bfloat16, cache_enabled=not capturing):
             # the action distribution at the batch; rsl-rl's actor(..., stochastic_output=True) also draws a sample
-            # that the update does not use (and a random draw would not replay in CapturedPPO's graph)
+            # that the update does not use (and a random draw would not replay in the captured update's graph)
             self.actor.distribution.update(self.actor.mlp(self.actor.get_latent(batch.observations)))
             actions_log_prob = self.actor.get_output_log_prob(batch.actions)
             values = self.critic(batch.observations, masks=batch.masks, hidden_state=batch.hidden_states[1])
