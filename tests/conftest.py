@@ -2,17 +2,12 @@
 
 from __future__ import annotations
 
-import os
 import sys
 from pathlib import Path
 
-from agile.run.fingerprint import PINNED_CPU_NUMERICS
-
-os.environ.update(PINNED_CPU_NUMERICS)  # before torch loads: rollouts compute alike on any AVX2 CPU (fingerprints)
-
-import pytest  # noqa: E402
-import torch  # noqa: E402
-import warp as wp  # noqa: E402
+import pytest
+import torch
+import warp as wp
 
 wp.config.quiet = True
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))  # the one-off data generators

@@ -155,7 +155,7 @@ def test_sweep_command_holds_one_height_per_env_and_reports_where_each_settles(e
 def test_the_joint_deviation_gate_on_the_command(env_and_agent):
     """AGILE's gate (the root above min_height_m) alone by default; with min_command_m, also only while the command
     asks for at least that height (the trained policy avoided every posture between about 0.65 and 0.85 m that the
-    root gate charges the whole deviation: docs/stand_up.md)."""
+    root gate charges the whole deviation: docs/height_tracking.md)."""
     from agile.tasks.height_tracking import mdp
     from agile.rl_env.managers import SceneEntityCfg
 

@@ -67,9 +67,36 @@ def test_a_run_without_an_evaluated_checkpoint_writes_no_curve(tmp_path):
     from agile.run.time_to_policy import plot
 
     result = {"task": "Velocity-T1-v0", "evaluations": [], "criteria": {"fall_rate": 0.05}, "first_iteration_s": None,
-              "time_to_policy_s": None, "gpus": 1}
-    assert plot(result, str(tmp_path / "curve.png")) is False
+              "time_to_policy_s": None, "gpus": 1, "seed": None}
+    assert plot([result], str(tmp_path / "curve.png"), "title") is False
     assert not (tmp_path / "curve.png").exists()
+
+
+def test_seeds_run_one_after_another_and_are_summarised(tmp_path, capsys):
+    """--seeds: one training per seed (its own JSON and log), then the summary over them, one curve per seed."""
+    out = tmp_path / "seeds"
+    code = main(["--task", "Velocity-T1-v0", "--seeds", "3", "4", "--budget_s", "300", "--max_iterations", "1",
+                 "--num_envs", "2", "--device", "cpu", "--save_interval", "1", "--eval_num_envs", "2",
+                 "--eval_episode_length_s", "0.2", "--evaluate_after_training", "--criterion", "fall_rate=1.0",
+                 "--out", str(out), "agent.num_steps_per_env=2", *FLAT_GROUND_ARGS])
+    assert code == 0, capsys.readouterr()
+    summary = json.loads(out.with_suffix(".json").read_text())
+    runs = [json.loads((tmp_path / name).read_text()) for name in summary["runs"]]
+    assert summary["seeds"] == [3, 4] and [r["seed"] for r in runs] == [3, 4] and summary["met"] == 2
+    assert summary["time_to_policy_s"] == [r["time_to_policy_s"] for r in runs] and not summary["missed_seeds"]
+    assert summary["worst_s"] == max(summary["time_to_policy_s"])
+    assert (tmp_path / "seeds_seed3.log").exists() and (tmp_path / "seeds_seed4.log").exists()
+
+
+def test_the_seed_summary_counts_a_miss_as_its_budget():
+    from agile.run.time_to_policy import seed_summary
+
+    runs = [{"seed": 0, "time_to_policy_s": 250.0, "budget_s": 300.0},
+            {"seed": 1, "time_to_policy_s": None, "budget_s": 300.0},
+            {"seed": 2, "time_to_policy_s": 190.5, "budget_s": 300.0}]
+    summary = seed_summary(runs)
+    assert summary["median_s"] == 250.0 and summary["worst_s"] == 300.0
+    assert summary["missed_seeds"] == [1] and summary["met"] == 2 and summary["time_to_policy_s"][1] is None
 
 
 

@@ -1,5 +1,5 @@
 """Record demonstrations: a policy runs a recording task (e.g. PickPlace-G1-Record-v0) and every episode it plays is
-written as a LeRobot dataset in NVIDIA GR00T's layout (see agile/run/lerobot_dataset.py and docs/recording.md).
+written as a LeRobot dataset in NVIDIA GR00T's layout (see agile/run/lerobot_dataset.py and docs/howto/record.md).
 
     agile record --task PickPlace-G1-Record-v0 --checkpoint model.pt --num_envs 16 --num_episodes 100 --out demos/
     agile record --task PickPlace-G1-Record-v0 --num_envs 4 --num_episodes 2 --out demos/   # the shipped policy

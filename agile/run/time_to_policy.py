@@ -1,7 +1,7 @@
 """Time to policy: train a task from scratch for a wall-clock budget and report when its policy first meets the
 task's criteria (agile/tasks/catalogue.py), with the curve of its evaluations against wall time.
 
-    agile time_to_policy --task Velocity-G1-History-v0 --budget_s 600 --out docs/time_to_policy/g1_h100
+    agile time_to_policy --task Velocity-G1-History-v0 --budget_s 600 --out g1_h100
     agile time_to_policy --task Velocity-T1-v0 --budget_s 300 --gpus 4 --out t1_4gpu    # torchrun, ranks on GPUs 0-3
 
 The training runs as a child process (`agile train`, or torchrun over --gpus GPUs with --distributed) and saves a
@@ -23,6 +23,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -176,7 +177,8 @@ def run_until_criteria(args, criteria: dict, minima: dict, device: str, log_root
             if judge(iteration, path)["met"]:
                 met_at = judge.rows[-1]
                 break
-    return {"task": args.task, "gpus": args.gpus, "num_envs_per_gpu": args.num_envs, "budget_s": args.budget_s,
+    return {"task": args.task, "seed": args.seed, "gpus": args.gpus, "num_envs_per_gpu": args.num_envs,
+            "budget_s": args.budget_s,
             "recipe": args.recipe, "overrides": list(args.overrides),  # the recipe's first, then the given ones
             "evaluated": "after the training" if args.evaluate_after_training else f"beside it, on {judge.device}",
             "criteria": criteria, "minima": minima,
@@ -210,10 +212,20 @@ def outcome(result: dict) -> str:
     return f"time to policy {result['time_to_policy_s']:.0f} s (iteration {result['iteration_at_criteria']})"
 
 
-def plot(result: dict, path: str) -> bool:
-    """The curve of each evaluated metric against wall time into `path`; False (no file) when no checkpoint was
-    evaluated (none written within the budget)."""
-    metrics = [m for m in CURVE_METRICS if any(m in row for row in result["evaluations"])]
+def seed_summary(results: list[dict]) -> dict:
+    """Over one run per seed: each seed's time to policy, the median and the worst, a run that missed its criteria
+    counted as its budget (and named in `missed_seeds`)."""
+    times = [r["time_to_policy_s"] if r["time_to_policy_s"] is not None else r["budget_s"] for r in results]
+    return {"seeds": [r["seed"] for r in results], "time_to_policy_s": [r["time_to_policy_s"] for r in results],
+            "median_s": statistics.median(times), "worst_s": max(times),
+            "missed_seeds": [r["seed"] for r in results if r["time_to_policy_s"] is None],
+            "met": sum(r["time_to_policy_s"] is not None for r in results)}
+
+
+def plot(results: list[dict], path: str, title: str) -> bool:
+    """The curve of each evaluated metric against wall time into `path`, one line per run (seed); False (no file)
+    when no checkpoint was evaluated (none written within the budget)."""
+    metrics = [m for m in CURVE_METRICS if any(m in row for r in results for row in r["evaluations"])]
     if not metrics:
         return False
     import matplotlib
@@ -223,16 +235,18 @@ def plot(result: dict, path: str) -> bool:
 
     fig, axes = plt.subplots(1, len(metrics), figsize=(4.2 * len(metrics), 3.4), squeeze=False)
     for ax, metric in zip(axes[0], metrics):
-        rows = [r for r in result["evaluations"] if metric in r]
-        ax.plot([r["wall_s"] for r in rows], [r[metric] for r in rows], marker="o")
-        if metric in result["criteria"]:
-            ax.axhline(result["criteria"][metric], color="r", label="maximum")
-            ax.legend(fontsize=7)
-        if result["first_iteration_s"] is not None:
-            ax.axvline(result["first_iteration_s"], color="grey", ls=":")
+        for result in results:
+            rows = [r for r in result["evaluations"] if metric in r]
+            line, = ax.plot([r["wall_s"] for r in rows], [r[metric] for r in rows], marker="o", ms=3,
+                            label=f"seed {result['seed']}: {outcome(result)}")
+            if result["first_iteration_s"] is not None:
+                ax.axvline(result["first_iteration_s"], color=line.get_color(), ls=":")
+        if metric in results[0]["criteria"]:
+            ax.axhline(results[0]["criteria"][metric], color="r", label="maximum")
         ax.set_xlabel("wall time since start [s]")
         ax.set_title(metric)
-    fig.suptitle(f"{result['task']}: {outcome(result)} ({result['gpus']} GPU(s); dotted: first iteration)")
+    axes[0][0].legend(fontsize=6)
+    fig.suptitle(f"{title} ({results[0]['gpus']} GPU(s); dotted: first iteration)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -248,7 +262,11 @@ def main(argv=None) -> int:
     parser.add_argument("--num_envs", type=int, default=None, help="training envs per GPU (default: the task's)")
     parser.add_argument("--device", default=None,
                         help="cuda:0 or cpu (default: cuda:0 with a GPU); cpu with --gpus N: N CPU ranks (gloo)")
-    parser.add_argument("--seed", type=int, default=None, help="training seed (default: the task's)")
+    seeds = parser.add_mutually_exclusive_group()
+    seeds.add_argument("--seed", type=int, default=None, help="training seed (default: the task's)")
+    seeds.add_argument("--seeds", type=int, nargs="+", default=None, metavar="SEED",
+                       help="one run per seed, one after another: each seed's time to policy, the median and the "
+                            "worst (a run that misses counts as its budget) in <out>.json, <out>_seed<N>.json per run")
     parser.add_argument("--save_interval", type=int, default=50, help="iterations between checkpoints (evaluations)")
     parser.add_argument("--max_iterations", type=int, default=100_000,
                         help="iterations the training is started for; the budget or the criteria end it first")
@@ -274,23 +292,42 @@ def main(argv=None) -> int:
         args.eval_device, _ = task_setup.resolve_device(args.eval_device)
     criteria, minima = criteria_of(args)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(prefix="agile_time_to_policy_") as log_root:
-        result = run_until_criteria(args, criteria, minima, device, log_root, Path(f"{args.out}.log"))
     from agile.run.eval_all import source_commit
 
-    result.update(device=device, commit=source_commit())
-    Path(f"{args.out}.json").write_text(json.dumps(result, indent=2))
+    commit = source_commit()
+    results = []
+    for seed in args.seeds or [args.seed]:
+        args.seed = seed
+        out = args.out if args.seeds is None else f"{args.out}_seed{seed}"
+        with tempfile.TemporaryDirectory(prefix="agile_time_to_policy_") as log_root:
+            result = run_until_criteria(args, criteria, minima, device, log_root, Path(f"{out}.log"))
+        result.update(device=device, commit=commit)
+        Path(f"{out}.json").write_text(json.dumps(result, indent=2))
+        met = result["time_to_policy_s"]
+        print(f"[agile] {args.task}, seed {seed}: " + (
+            f"criteria met at {met} s (iteration {result['iteration_at_criteria']})" if met is not None
+            else f"criteria not met within {args.budget_s:g} s") + f"; first iteration at "
+              f"{result['first_iteration_s']} s; {out}.json", flush=True)
+        results.append(result)
+    title = args.task
+    if args.seeds is not None:
+        summary = {"task": args.task, "device": device, "commit": commit, "budget_s": args.budget_s,
+                   "gpus": args.gpus, "num_envs_per_gpu": args.num_envs, "recipe": args.recipe,
+                   "overrides": list(args.overrides), **seed_summary(results),
+                   "runs": [f"{Path(args.out).name}_seed{r['seed']}.json" for r in results]}
+        Path(f"{args.out}.json").write_text(json.dumps(summary, indent=2))
+        title = (f"{args.task}: {summary['met']} of {len(results)} seeds met, median {summary['median_s']:.0f} s, "
+                 f"worst {summary['worst_s']:.0f} s")
+        print(f"[agile] {title} (a miss counts as the budget); {args.out}.json")
+    else:
+        title = f"{args.task}: {outcome(results[0])}"
     try:
-        if not plot(result, f"{args.out}.png"):
+        if not plot(results, f"{args.out}.png", title):
             print(f"[agile] no curve: no checkpoint was written within {args.budget_s:g} s (every "
                   f"{args.save_interval} iterations; --save_interval for more)")
     except ImportError:
         print("[agile] no plot: matplotlib is missing (pip install 'agile[plot]')")
-    met = result["time_to_policy_s"]
-    print(f"[agile] {args.task}: " + (f"criteria met at {met} s (iteration {result['iteration_at_criteria']})"
-                                      if met is not None else f"criteria not met within {args.budget_s:g} s")
-          + f"; first iteration at {result['first_iteration_s']} s; {args.out}.json")
-    return 0 if met is not None else 1
+    return 0 if all(r["time_to_policy_s"] is not None for r in results) else 1
 
 
 if __name__ == "__main__":

@@ -170,6 +170,27 @@ class ContactSensor:
                           self.cfg.force_threshold_n, self._physics_dt_s],
                   outputs=[self._forces_history, self._vel_history, *self._times])
 
+    def _reading_tensors(self) -> dict[str, torch.Tensor]:
+        tensors = {"net_forces_w_history": self.net_forces_w_history, "lin_vel_w_history": self.lin_vel_w_history,
+                   "current_air_time_s": self._current_air, "current_contact_time_s": self._current_contact,
+                   "last_air_time_s": self._last_air, "last_contact_time_s": self._last_contact}
+        if self.force_matrix_w is not None:
+            tensors["force_matrix_w"] = self.force_matrix_w
+        return tensors
+
+    def readings(self) -> dict[str, torch.Tensor]:
+        """Copies of everything the sensor has read (force and velocity histories, the air and contact clocks, the
+        force matrix): what `write_readings` puts back."""
+        return {name: value.clone() for name, value in self._reading_tensors().items()}
+
+    def write_readings(self, readings: dict[str, torch.Tensor]) -> None:
+        """Put `readings()`'s values back in place (a replayed step reads what the recorded one read)."""
+        targets = self._reading_tensors()
+        if set(readings) != set(targets):
+            raise ValueError(f"contact sensor readings {sorted(readings)}, this sensor reads {sorted(targets)}")
+        for name, value in readings.items():
+            targets[name].copy_(value)
+
     def reset(self, mask: torch.Tensor) -> None:
         """Clear histories and clocks where mask (N,) is True (masked in place, no host sync)."""
         m = mask.view(-1, 1)

@@ -165,6 +165,7 @@ class Simulation:
         """Work launched before every physics step after the actuators, e.g. an external wrench that follows the
         state (a harness); added with `add_physics_step_hook`. Warp launches only: the loop is graph-captured."""
         self._graphs: dict[int, object] = {}
+        self._after_step_hooks: list[Callable[[], None]] = []
 
     def _make_terrain_collision(self, method: str, terrain_shape: int) -> None:
         contact_max = self.solver.get_max_contact_count()
@@ -245,9 +246,21 @@ class Simulation:
         if not (self.use_graph and graph):
             with wp.ScopedDevice(self.wp_device):
                 self._physics_loop(num_steps)
-            return
-        graph = self._graphs.get(num_steps) or self._capture(num_steps)
-        wp.capture_launch(graph)
+        else:
+            wp.capture_launch(self._graphs.get(num_steps) or self._capture(num_steps))
+        for hook in self._after_step_hooks:
+            hook()
+
+    @contextlib.contextmanager
+    def after_each_step(self, hook: Callable[[], None]):
+        """Run `hook` after every `step` (the whole loop of physics steps), before anything reads the new state,
+        while the context lasts: a fingerprint's replay puts a recorded state in place of the one computed
+        (agile.run.fingerprint). Host code, not captured: not for a captured env step."""
+        self._after_step_hooks.append(hook)
+        try:
+            yield
+        finally:
+            self._after_step_hooks.remove(hook)
 
     def _capture(self, num_steps: int):
         """Record the loop once. The eager warm-up (lazy allocations) and the recording must not advance the
@@ -338,6 +351,29 @@ class Simulation:
         self.terrain_types.copy_(torch.where(mask, types.clamp(0, self.terrain_origins_m.shape[1] - 1),
                                              self.terrain_types))
         self.env_origins.copy_(self.terrain_origins_m[self.terrain_levels, self.terrain_types])
+
+    def physics_result(self) -> dict[str, torch.Tensor]:
+        """Copies of what a physics step leaves: every world's joint coordinates "joint_q" (N, Q) and velocities
+        "joint_qd" (N, D), robots' and objects' (a free body has a free joint; body poses and velocities follow from
+        them), the explicit actuators' last torques, applied "joint_f" and before clipping "computed_effort" (N, D),
+        and each contact sensor's readings ("contact/<sensor>/<reading>")."""
+        result = {name: wp.to_torch(array).view(self.num_envs, -1).clone() for name, array in self._physics_arrays()}
+        for name, sensor in self.scene.contact_sensors.items():
+            result.update({f"contact/{name}/{k}": v for k, v in sensor.readings().items()})
+        return result
+
+    def write_physics_result(self, result: dict[str, torch.Tensor]) -> None:
+        """Put a `physics_result()` in place of the current one and recompute the bodies' poses and velocities."""
+        for name, array in self._physics_arrays():
+            wp.to_torch(array).view(self.num_envs, -1).copy_(result[name])
+        for name, sensor in self.scene.contact_sensors.items():
+            prefix = f"contact/{name}/"
+            sensor.write_readings({k[len(prefix):]: v for k, v in result.items() if k.startswith(prefix)})
+        self.forward()
+
+    def _physics_arrays(self) -> tuple[tuple[str, wp.array], ...]:
+        return (("joint_q", self.state.joint_q), ("joint_qd", self.state.joint_qd),
+                ("joint_f", self.control.joint_f), ("computed_effort", self.computed_effort))
 
     @contextlib.contextmanager
     def actuators_disabled(self):

@@ -22,13 +22,13 @@ EVALUATED_KINDS = ("trainable", "distilled")
 there; multi-agent tasks have their own eval)."""
 
 DEFAULT_EVAL_SETTINGS = {"num_envs": 512, "num_episodes": 1, "episode_length_s": 20.0}
-"""GPU evaluation: 512 envs for one 20 s episode each, pushes off (what docs/eval_*_h100.json used)."""
+"""GPU evaluation: 512 envs for one 20 s episode each, pushes off (what docs/results/velocity/eval_*_h100.json used)."""
 TINY_CPU_SETTINGS = {"num_envs": 2, "num_episodes": 1, "episode_length_s": 1.0}
 """A setting that only proves the pipeline runs (CI): too short to judge a policy, so criteria are not checked."""
 
 DEFAULT_CRITERIA = {"fall_rate": 0.05, "lin_vel_error_mps": 0.25, "ang_vel_error_radps": 0.3}
 """Maxima a shipped velocity policy must meet; the shipped T1 and G1 policies measured 0.002 falls per episode,
-0.06-0.14 m/s and 0.15 rad/s on an H100 (docs/eval_*_h100.json): about twice that is a regression."""
+0.06-0.14 m/s and 0.15 rad/s on an H100 (docs/results/velocity/eval_*_h100.json): about twice that is a regression."""
 HEIGHT_CRITERIA = {**DEFAULT_CRITERIA, "base_height_error_m": 0.05}
 """Tasks with a base-height command also bound the height error (commanded minus measured above the terrain)."""
 NO_VELOCITY_CRITERIA = {"fall_rate": 0.05}
@@ -36,7 +36,7 @@ NO_VELOCITY_CRITERIA = {"fall_rate": 0.05}
 adds its own episode metrics (`eval_criteria`, names as in eval.py's `episode_metrics`: "<term>/<name>" of a
 command's, "<name>" of a metric term's)."""
 LEGACY_EPISODE_METRICS_KEY = "command_metrics"
-"""Where eval JSON files written before the metric terms (docs/*/eval_*.json) hold the command terms' metrics."""
+"""Where eval JSON files written before the metric terms (docs/results/*/eval_*.json) hold the command terms' metrics."""
 
 
 @dataclasses.dataclass(frozen=True)

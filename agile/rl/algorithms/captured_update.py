@@ -15,7 +15,7 @@ checkpoint). What changes between updates in tensors the graph reads keeps the t
 normalisers' std (rsl-rl assigns a new tensor when they learn a rollout) is copied into the captured one, which goes
 back into the normaliser, before each replay (`rebind_buffers`). Capturing once matters for memory as much as time:
 captured afresh at every update, a training held on to about 0.85 GB of each update's graph memory and ran out of
-an H100's 80 GB at iteration 89 (time to policy, sixteenth session). The first update runs eagerly: it creates the
+an H100's 80 GB at iteration 89 (measured in a time-to-policy run). The first update runs eagerly: it creates the
 optimizer's state and the autograd and cuBLAS workspaces that capture must not allocate for the first time.
 
 The rollout must be collected without an autograd record (under `torch.inference_mode()`, as rsl-rl's runner

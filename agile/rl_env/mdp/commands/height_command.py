@@ -5,7 +5,7 @@ What the numbers of HeightTracking-G1 mean: the tracked point is 0.2 m above the
 the torso's own z axis (roughly the chest; the torso origin sits at the waist joint, 0.044 m above the pelvis).
 The top of the range, 0.92 m, is "stand" (AGILE: its pelvis height 0.72 m + 0.2 m); measured, G1 in its default
 pose reads 1.00 m (its pelvis 0.76 m up), an upright crouch with the pelvis at 0.68 m reads 0.92 m, and a lying
-robot 0.04-0.19 m (docs/stand_up.md, HeightTracking-G1 audit). The range reaches down to -0.5 m,
+robot 0.04-0.19 m (docs/height_tracking.md). The range reaches down to -0.5 m,
 a height no point of the robot can be at: a negative command is not a height to track but a request to lie down
 and relax, the more negative the more relaxed (`relaxation_intensity`, which `relaxation_penalty` scales by);
 the height rewards then pull the point as low as it can go. Commands from 0 to 0.92 m ask for a sitting, kneeling

@@ -49,7 +49,7 @@ class CommandsCfg:
     # stand, 20% lie; tracking counts 2 s after each change. The command moves to each value at 0.1-2 m/s (AGILE
     # jumps, 1000 m/s): trained on jumps only, the policy never rose under the reference's own check, a command
     # ramped 0.72 -> -0.5 -> 0.72 over 12 s in MuJoCo (it stayed at 0.41 m); 1,600 iterations with ramps brought it
-    # to 0.66 m (docs/stand_up.md). Measured (CPU): the default pose reads 1.00 m (AGILE's straighter one 1.03 m), so
+    # to 0.66 m (docs/height_tracking.md). Measured (CPU): the default pose reads 1.00 m (AGILE's straighter one 1.03 m), so
     # "stand" is met by an upright crouch (pelvis 0.68 m, knees 1.2 rad) or, 0.08 m off, by the default pose; lying
     # reads 0.04-0.19 m
     height = mdp.SmoothHeightCommandCfg(
@@ -136,11 +136,11 @@ class RewardsCfg:
     base_height_medium = _track_height(8.0, 0.3)
     # std 0.1 m, not AGILE's 0.2: at 0.2 the finest kernel still paid 74% 0.11 m off, and without the lift the policy
     # held a few postures (a full squat, a crouched stand) instead of the heights between; 1,500 iterations at 0.1 from
-    # 17,500 took the settled error 0.064 -> 0.049 m (docs/stand_up.md, twenty-second session). Weight 32, not 16: at
+    # 17,500 took the settled error 0.064 -> 0.049 m (docs/height_tracking.md). Weight 32, not 16: at
     # 16 the penalties at their polish weights (~-21/s) outbid the height terms (~+11/s) and the tracking drifted
-    # worse while the return rose; at 32 it improved 0.045 -> 0.025 m (twenty-fifth session). Weight 48 from 20,400:
+    # worse while the return rose; at 32 it improved 0.045 -> 0.025 m. Weight 48 from 20,400:
     # at 32 the crouch settled 0.015-0.03 m low at 0.65-0.70 m and the 0.6-0.8 m band sat on its bound (0.0505 m over
-    # 1,024 envs); at 48 it fell to 0.026-0.028 m over 2,048 envs in 1,400 iterations (twenty-seventh session)
+    # 1,024 envs); at 48 it fell to 0.026-0.028 m over 2,048 envs in 1,400 iterations
     base_height_fine = _track_height(48.0, 0.1)
     relaxation = RewTerm(func=mdp.relaxation_penalty, weight=-1.0,
                          params={"command_name": COMMAND, "pos_weight": 1.0, "torque_weight": 1.0e-3})
@@ -158,7 +158,7 @@ class RewardsCfg:
                             params={"asset_cfg": SceneEntityCfg("robot", joint_names=".*_ankle_.*")})
     # -- posture: the default pose once up, still at the target, upright, never upside down or bent forward
     # (min_command_m None: AGILE's gate, the root height alone; gated on the command too, 0.9 m, the squat went and
-    # the policy stood crouched instead, worse on the bands: docs/stand_up.md)
+    # the policy stood crouched instead, worse on the bands: docs/height_tracking.md)
     joint_deviation_l1 = RewTerm(func=mdp.joint_deviation_if_standing_asked, weight=-0.5,
                                  params={"min_height_m": 0.5, "sensor_name": BASE_HEIGHT_SENSOR,
                                          "asset_cfg": SceneEntityCfg("robot"), "norm": "l1",

@@ -95,7 +95,7 @@ def joint_deviation_if_standing_asked(env, min_height_m: float, asset_cfg: Scene
     Why a command gate: the root-height gate comes from StandUp, whose only goal is standing. Here, every posture
     that holds the tracked point between about 0.65 and 0.85 m has the root above 0.5 m with the knees bent, and
     pays the whole deviation from the default pose (legs and arms, l1, weight -0.5: 3-7.5 per step), as much as the
-    height rewards gain by reaching the command; the trained policy stays below the gate instead (docs/stand_up.md,
+    height rewards gain by reaching the command; the trained policy stays below the gate instead (docs/height_tracking.md,
     "the reward balance")."""
     deviation = joint_deviation_if_standing(env, min_height_m, asset_cfg, norm, sensor_name)
     if min_command_m is None:

@@ -47,7 +47,7 @@ class ActionsCfg:
     # (effective yaw inertia about 0.1-0.15 kg·m²) and spin it at 3.0 rad/s under about 200 N·m flipping each physics
     # step, while the lift is at full strength (CPU, 8 envs: the `not_moving` cost of a T1 standing at rest -6.0 per
     # step instead of -0.18, which makes standing up unrewarding); 40 was the largest measured stable value, 25 keeps
-    # a margin and still stops a lying T1's turn (docs/stand_up.md "Audit (CPU)")
+    # a margin and still stops a lying T1's turn (docs/stand_up.md)
     lift = mdp.LiftActionCfg(body_name="H2", target_height_m=STANDING_HEIGHT_M, height_sensor=BASE_HEIGHT_SENSOR,
                              damping_torque_nm_s_per_rad=25.0)
 

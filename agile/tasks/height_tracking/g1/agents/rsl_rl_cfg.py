@@ -11,7 +11,7 @@ def g1_height_tracking_ppo_runner_cfg() -> PpoRunnerCfg:
                                   entropy_coef=0.0025, gamma=0.995, symmetry_cfg=None)
     # AGILE also normalises the rewards and adds L2C2. Both are built (`RewardNormalizationCfg()` and `L2C2Cfg()` in
     # `cfg.algorithm`, AGILE's settings) but off here: from the 19,000 resume point they drifted as the run without
-    # them did (docs/stand_up.md, twenty-fourth session), and the shipped policy trained without them.
+    # them did (docs/height_tracking.md), and the shipped policy trained without them.
     # the sync-free update is rsl-rl's PPO update, the same math
     cfg.algorithm.sync_free_update = True
     return cfg
