@@ -19,33 +19,31 @@ import sys
 
 import yaml
 
+from agile.errors import AgileError
+from agile.run.arguments import command
+
 FORWARDED = ("train", "play", "eval", "eval_all", "export", "benchmark", "sim2mujoco", "plot_learning_curve",
              "time_to_policy", "pick_checkpoint", "record", "fingerprint", "deploy", "sim_robot")
 """Subcommands that run `agile.run.<name>.main` with the arguments that follow."""
-EXIT_USAGE = 2
-
-
-def fail(message: str):
-    print(f"error: {message}", file=sys.stderr)
-    sys.exit(EXIT_USAGE)
 
 
 def check_task(task: str) -> None:
-    """Exit 2 with one line listing the registered tasks unless `task` is one."""
-    from agile.tasks import registered_tasks
+    """Raise an AgileError listing the registered tasks unless `task` is one."""
+    from agile.tasks import task_spec
 
-    if task not in registered_tasks():
-        fail(f"unknown task '{task}'. Registered tasks: {', '.join(registered_tasks())}")
+    task_spec(task)
 
 
 def cmd_list(_args) -> None:
-    from agile.tasks.catalogue import catalogue
+    """The registry only: no config, env or kernel is loaded for a listing."""
+    import agile.tasks
 
-    entries = catalogue()
-    width = max(len(e.task) for e in entries)
+    rows = [(task, agile.tasks.task_kind(task), ",".join(p.name for p in agile.tasks.shipped_policy_files(task)) or "-")
+            for task in agile.tasks.registered_tasks()]
+    width = max(len(task) for task, _, _ in rows)
     print(f"{'task':<{width}}  {'kind':<11}  shipped policy")
-    for e in entries:
-        print(f"{e.task:<{width}}  {e.kind:<11}  {e.policy.name if e.policy else '-'}")
+    for task, kind, policies in rows:
+        print(f"{task:<{width}}  {kind:<11}  {policies}")
 
 
 def cmd_show(args) -> None:
@@ -53,18 +51,15 @@ def cmd_show(args) -> None:
     import agile.tasks
     from agile.tasks.catalogue import task_entry
     from agile.tasks.describe import resolved_mdp
-    from agile.utils.config import ConfigError, apply_overrides
+    from agile.utils.config import apply_overrides
 
     entry = task_entry(args.task)
     if entry.kind == "multi_agent":
-        fail(f"agile show resolves single-agent tasks; {args.task} is multi-agent (its agents' tasks: "
-             f"{sorted(agile.tasks.task_spec(args.task).kwargs.get('single_agent_baselines', {}).values())})")
+        raise AgileError(f"agile show resolves single-agent tasks; {args.task} is multi-agent (its agents' tasks: "
+                         f"{sorted(agile.tasks.task_spec(args.task).single_agent_baselines.values())})")
     env_cfg, _ = agile.tasks.load_cfgs(args.task)
     env_cfg.num_envs = 1
-    try:
-        apply_overrides({"env": env_cfg}, args.overrides)
-    except ConfigError as err:
-        fail(str(err))
+    apply_overrides({"env": env_cfg}, args.overrides)
     from agile.rl_env import ManagerBasedRLEnv
 
     print(f"[agile] building {args.task} on CPU with 1 env", file=sys.stderr, flush=True)
@@ -72,7 +67,7 @@ def cmd_show(args) -> None:
     mdp = {"kind": entry.kind, "shipped_policy": entry.policy.name if entry.policy else None, **resolved_mdp(env)}
     if args.section:
         if args.section not in mdp:
-            fail(f"no section '{args.section}'. Sections: {', '.join(mdp)}")
+            raise AgileError(f"no section '{args.section}'. Sections: {', '.join(mdp)}")
         mdp = {args.section: mdp[args.section]}
     # flow style for leaf lists: a joint list on one line
     print(yaml.safe_dump(mdp, sort_keys=False, width=120, default_flow_style=None), end="")
@@ -117,6 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+@command
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv and argv[0] in FORWARDED:

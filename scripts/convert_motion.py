@@ -10,14 +10,19 @@ the body poses and velocities from the forward kinematics of the task's robot mo
 """
 
 from __future__ import annotations
-from agile.run.common import fail, new_parser
+
+import sys
+
+from agile.errors import AgileError
+from agile.run.arguments import command, new_parser
 
 from agile.assets.unitree_g1 import g1_beyondmimic_actuators, g1_robot_cfg
 from agile.motion import save_motion
 from agile.motion.convert import G1_CSV_JOINT_NAMES, convert_csv
 
 
-def main() -> None:
+@command
+def main(argv=None) -> None:
     parser = new_parser(__doc__)
     parser.add_argument("--input", required=True, help="the motion CSV")
     parser.add_argument("--input_fps", type=float, required=True, help="the CSV's frame rate [Hz]")
@@ -28,19 +33,19 @@ def main() -> None:
                         help="keep only these CSV frames (inclusive, from 0)")
     parser.add_argument("--joint_names", nargs="+", default=G1_CSV_JOINT_NAMES,
                         help="the CSV's joint columns, in order (default: the G1 29-DoF URDF order)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     if args.input_fps <= 0 or args.output_fps <= 0:
-        fail("--input_fps and --output_fps must be positive")
+        raise AgileError("--input_fps and --output_fps must be positive")
     try:
         motion = convert_csv(args.input, args.input_fps, args.output_fps, g1_robot_cfg(g1_beyondmimic_actuators()),
                              csv_joint_names=args.joint_names,
                              frame_range=tuple(args.frame_range) if args.frame_range else None)
     except (OSError, ValueError) as err:
-        fail(str(err))
+        raise AgileError(str(err)) from err
     save_motion(args.output, motion)
     print(f"{args.output}: {motion.num_frames} frames at {motion.fps:g} fps ({motion.duration_s:.2f} s), "
           f"{len(motion.joint_names)} joints, {len(motion.body_names)} bodies")
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -26,14 +26,14 @@ def rollout(num_envs: int, steps: int, device: str, seed: int) -> tuple[torch.Te
     student's observation terms of each step, the true planar base velocity in the base's yaw frame (the frame the
     command and the tracking reward use), the commanded one, and whether the env did not end at that step."""
     from agile.rl.checkpoints import load_checkpoint
-    from agile.run import common as cli
+    from agile.run import task_setup
     from agile.run.policy import inference_cfg, load_policy
     from agile.utils.math import yaw_from_quat
 
-    args = argparse.Namespace(task=TASK, num_envs=num_envs, device=device, seed=seed, overrides=[])
-    checkpoint = cli.shipped_policy(args)
-    env_cfg, agent_cfg, device = cli.load_task(args)
-    env = cli.make_env(TASK, inference_cfg(env_cfg), device)
+    checkpoint, overrides = task_setup.shipped_policy(task=TASK)
+    env_cfg, agent_cfg, device = task_setup.load_task(task=TASK, num_envs=num_envs, device=device, seed=seed,
+                                                 overrides=overrides)
+    env = task_setup.make_env(task=TASK, env_cfg=inference_cfg(env_cfg), device=device)
     policy = load_policy(load_checkpoint(checkpoint, "cpu"), env, agent_cfg)
     robot = env.scene["robot"]
     obs, _ = env.reset()

@@ -28,10 +28,10 @@ def run_command(command: str, *args, cwd=None) -> tuple[int, str, str]:
 
 
 def run_main(main, *args, cwd=None) -> tuple[int, str, str]:
-    """(exit code, stdout, stderr) of a command line's `main(args)` (a command's, or `agile.cli.main`); the
+    """(exit code, stdout, stderr) of a command line's `main(args)` (a command's, or `agile.tasks.main`); the
     environment, the working folder, `sys.argv[0]` and the commands' verbosity are put back afterwards (a --verbose
     run sets AGILE_VERBOSE)."""
-    from agile.run import common
+    from agile.run import task_setup as common
 
     environ, verbose, folder, argv0 = dict(os.environ), common.VERBOSE, os.getcwd(), sys.argv[0]
     out, err = io.StringIO(), io.StringIO()

@@ -54,7 +54,7 @@ def height_tracking_env_and_agent(tmp_path_factory):
 
     import agile.tasks
     from agile.tasks.stand_up.fallen_states import FallenStateDatasetCfg
-    from agile.run import common as cli
+    from agile.run import task_setup
 
     env_cfg, agent_cfg = agile.tasks.load_cfgs("HeightTracking-G1-v0")
     env_cfg.num_envs = 3
@@ -63,7 +63,7 @@ def height_tracking_env_and_agent(tmp_path_factory):
     env_cfg.events.reset_base.params["dataset"] = FallenStateDatasetCfg(
         cache_dir=str(tmp_path_factory.mktemp("fallen_cache")))
     with contextlib.redirect_stdout(io.StringIO()):
-        env = cli.make_env("HeightTracking-G1-v0", env_cfg, "cpu")  # collects the fallen-state dataset
+        env = task_setup.make_env(task="HeightTracking-G1-v0", env_cfg=env_cfg, device="cpu")  # collects the fallen-state dataset
     return env, agent_cfg
 
 

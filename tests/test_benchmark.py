@@ -1,6 +1,5 @@
 """benchmark.py's and training_timing.py's timing helpers on CPU (the figures themselves come from the GPU machine)."""
 
-import argparse
 
 import pytest
 import torch
@@ -38,10 +37,9 @@ def test_the_gpu_timeline_splits_an_iteration_into_its_phases(tmp_path):
     resolution)."""
     from agile.rl_env import ManagerBasedRLEnv
     from agile.rl.runner import training_runner
-    from agile.run import common as cli
+    from agile.run import task_setup
 
-    args = argparse.Namespace(task="Velocity-T1-v0", num_envs=64, device="cuda:0", seed=None, overrides=[])
-    env_cfg, agent_cfg, device = cli.load_task(args)
+    env_cfg, agent_cfg, device = task_setup.load_task(task="Velocity-T1-v0", num_envs=64, device="cuda:0")
     env = ManagerBasedRLEnv(env_cfg, task_name="Velocity-T1-v0", device=device)
     runner = training_runner(env, agent_cfg, str(tmp_path))
     runner.learn(1)

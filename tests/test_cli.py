@@ -18,7 +18,7 @@ T1, G1 = "Velocity-T1-v0", "Velocity-G1-History-v0"
 
 
 def run_agile(*args: str) -> subprocess.CompletedProcess:
-    """`agile ARGS`, run in this process (`agile.cli.main`): its exit code, stdout and stderr."""
+    """`agile ARGS`, run in this process (`agile.tasks.main`): its exit code, stdout and stderr."""
     code, out, err = run_main(cli_main, *args)
     return subprocess.CompletedProcess(["agile", *args], code, out, err)
 
@@ -193,7 +193,7 @@ def test_cli_forwards_fingerprint_and_its_errors(capsys):
 def test_overrides_may_come_before_between_and_after_options():
     """A command line built in parts (a test's flat-ground overrides, then options, then one more override) parses;
     argparse's plain parse_args refused the second group of overrides ("unrecognized arguments")."""
-    from agile.run import common
+    from agile.run import arguments as common
 
     parser = common.new_parser("test")
     common.add_common_args(parser)

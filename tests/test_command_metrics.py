@@ -181,7 +181,7 @@ def test_eval_reports_motion_tracking_errors(motion_env, tmp_path):
 
 
 def test_eval_breaks_outcomes_down_by_the_kind_of_episode_each_started_with():
-    from agile.run.eval_breakdowns import OutcomesByVariant
+    from agile.run.metric_breakdowns import OutcomesByVariant
 
     class Term:  # a command drawing one of two kinds of episode per env
         ids = torch.tensor([0, 1, 1])
@@ -275,7 +275,7 @@ def test_eval_reports_pick_place_success(pick_place_env, tmp_path):
 def test_eval_counts_falls_by_robot():
     """An env's robot keeps its startup randomisation for the whole evaluation: one that cannot walk falls after
     every reset, so falls are also counted by robot (env), overall and within a sweep's mask."""
-    from agile.run.evaluation import summarise
+    from agile.run.rollout_metrics import summarise
 
     n = 4
     sums = {"episodes": torch.tensor([1.0, 4.0, 2.0, 1.0]), "falls": torch.tensor([0.0, 3.0, 1.0, 0.0]),
@@ -292,7 +292,7 @@ def test_eval_counts_each_envs_first_episodes_only():
     """An env that falls starts another episode inside the evaluation's window; only its first `num_episodes` count
     (counting the rest would count their falls but not the time-outs the window cuts off). A T1 driven by large
     random actions falls within a second, several times in a 2 s window: still one episode per env."""
-    from agile.run.evaluation import evaluate
+    from agile.run.rollout_metrics import evaluate
 
     env = gym.make("Velocity-T1-v0", num_envs=2, device="cpu",
                    overrides=["episode_length_s=2.0", *FLAT_GROUND]).unwrapped

@@ -57,15 +57,14 @@ def test_one_distillation_iteration_and_its_export(student, teacher_run, tmp_pat
     assert descriptor["policy"]["recurrent"] == student.endswith("Recurrent-v0")
     exported = torch.jit.load(str(run_dir / "exported" / "policy.pt"))
     from agile.rl import policy_obs_set
-    from agile.run import common as cli
-    from agile.run.common import load_runner
-
+    from agile.run import task_setup
+    
     import agile.tasks
 
     env_cfg, agent_cfg = agile.tasks.load_cfgs(student)
     env_cfg.num_envs = 1
-    env = cli.make_env(student, env_cfg, "cpu")
-    student_policy = load_runner(checkpoint, env, agent_cfg).get_inference_policy(device="cpu")
+    env = task_setup.make_env(task=student, env_cfg=env_cfg, device="cpu")
+    student_policy = task_setup.load_runner(checkpoint, env, agent_cfg).get_inference_policy(device="cpu")
     assert policy_obs_set(agent_cfg) == "student"
     exported.reset()
     from agile.rl import flatten_groups

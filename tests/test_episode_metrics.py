@@ -113,7 +113,7 @@ def test_merged_view_holds_both_and_refuses_a_key_both_name():
 @pytest.fixture(scope="module")
 def stand_up(tmp_path_factory):
     """StandUp-T1 with 3 envs on 2 terrain rows its dataset made when built (a tiny fallen-state dataset)."""
-    from agile.run import common as cli
+    from agile.run import task_setup
 
     cache_dir = tmp_path_factory.mktemp("fallen_cache")
     env_cfg, agent_cfg = agile.tasks.load_cfgs(TASK)
@@ -121,7 +121,7 @@ def stand_up(tmp_path_factory):
     env_cfg.scene.terrain = dataclasses.replace(env_cfg.scene.terrain, num_rows=2, num_cols=3)
     env_cfg.events.reset_base.params["dataset"] = FallenStateDatasetCfg(cache_dir=str(cache_dir))
     with contextlib.redirect_stdout(io.StringIO()):
-        env = cli.make_env(TASK, env_cfg, "cpu")
+        env = task_setup.make_env(task=TASK, env_cfg=env_cfg, device="cpu")
     yield env, agent_cfg, cache_dir
     env.close()
 

@@ -58,7 +58,7 @@ def test_command_range_shares_and_settle_time(env_and_agent):
 
 
 def test_the_command_error_eval_bins_is_the_metrics_error_on_the_steps_it_counts(env_and_agent):
-    from agile.run.eval_breakdowns import ErrorByCommand
+    from agile.run.metric_breakdowns import ErrorByCommand
 
     env, _ = env_and_agent
     command = env.command_manager.get_term("height")

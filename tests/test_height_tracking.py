@@ -9,6 +9,8 @@ from pathlib import Path
 import pytest
 import torch
 
+from agile.errors import AgileError
+
 
 TASK = "HeightTracking-G1-v0"
 ROOT = Path(__file__).resolve().parents[1]
@@ -50,7 +52,7 @@ def test_fallen_states_are_collected_without_the_lift(env_and_agent):
 
 
 def test_eval_reports_the_height_error_by_commanded_height(env_and_agent):
-    from agile.run.evaluation import evaluate
+    from agile.run.rollout_metrics import evaluate
 
     env, _ = env_and_agent
     num_actions = env.action_manager.total_action_dim
@@ -141,13 +143,12 @@ def test_sweep_command_holds_one_height_per_env_and_reports_where_each_settles(e
     assert balance_table.count("\n") == 1 + len(rows) and balance_table.splitlines()[0].count("|") == 6
     # refused: more values than envs, an episode no longer than the settle time, a task without such a command
     for values, settled_after_s in (([0.1, 0.2, 0.3, 0.4], 1.0), ([0.3], 30.0)):
-        with pytest.raises(SystemExit):
+        with pytest.raises(AgileError):
             command_sweep(env, lambda obs: torch.zeros(env.num_envs, num_actions), 1, values, settled_after_s)
     velocity_only = types.SimpleNamespace(command_manager=types.SimpleNamespace(terms={}, active_terms=["velocity"]))
-    with pytest.raises(SystemExit):
+    with pytest.raises(AgileError) as refused:
         swept_command(velocity_only)
-    errors = capsys.readouterr().err
-    assert "--sweep_command" in errors and "(commands: ['velocity'])" in errors
+    assert "--sweep_command" in str(refused.value) and "(commands: ['velocity'])" in str(refused.value)
     env.reset()
 
 

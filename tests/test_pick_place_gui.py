@@ -112,7 +112,7 @@ def test_play_opens_the_debug_variant_with_the_shipped_policy_or_else_its_slider
 
 
 def test_videos_of_pick_and_place_look_over_the_right_shoulder(gui, tmp_path):
-    from agile.run.recording import DEFAULT_CAMERA_OFFSET_M, VideoRecorder
+    from agile.run.recorders import DEFAULT_CAMERA_OFFSET_M, VideoRecorder
 
     env, _, _ = gui
     video = VideoRecorder(str(tmp_path / "pick_place.mp4"), env, width=64, height=48)

@@ -6,22 +6,22 @@ from __future__ import annotations
 import yaml
 from commands import FLAT_GROUND_ARGS, run_command
 
-from agile.run import common as cli
+from agile.run import arguments, task_setup
 from agile.run.recipes import RECIPES
 
 
 def parser_with_recipe():
-    parser = cli.new_parser("test")
-    cli.add_common_args(parser)
-    cli.add_recipe_arg(parser)
+    parser = arguments.new_parser("test")
+    arguments.add_common_args(parser)
+    arguments.add_recipe_arg(parser)
     return parser
 
 
 def test_recipe_overrides_come_first_and_the_given_ones_win():
-    args = cli.parse(parser_with_recipe(), ["--task", "Velocity-T1-v0", "--device", "cpu", "--recipe", "fast",
+    args = arguments.parse(parser_with_recipe(), ["--task", "Velocity-T1-v0", "--device", "cpu", "--recipe", "fast",
                                             "agent.algorithm.desired_kl=0.015"])
     assert args.overrides == [*RECIPES["fast"], "agent.algorithm.desired_kl=0.015"]
-    _, agent_cfg, _ = cli.load_task(args)
+    _, agent_cfg, _ = task_setup.load_task(**arguments.task_options(args))
     assert agent_cfg.algorithm.captured_update is True
     assert agent_cfg.algorithm.use_mixed_precision is True and agent_cfg.float32_matmul_precision == "high"
     assert agent_cfg.algorithm.desired_kl == 0.015

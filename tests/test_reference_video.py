@@ -22,7 +22,7 @@ def motion_env():
 
 def test_the_reference_copy_stands_at_the_motions_stored_body_poses(motion_env, tmp_path):
     import imageio.v2 as imageio
-    from agile.run.recording import VideoRecorder
+    from agile.run.recorders import VideoRecorder
 
     env = motion_env
     path = tmp_path / "side_by_side.mp4"
@@ -56,7 +56,7 @@ def test_the_reference_copy_stands_at_the_motions_stored_body_poses(motion_env, 
 
 
 def test_a_task_without_a_reference_pose_has_no_reference_view(t1_env, tmp_path):
-    from agile.run.recording import VideoRecorder
+    from agile.run.recorders import VideoRecorder
 
     with pytest.raises(ValueError, match="reference pose"):
         VideoRecorder(str(tmp_path / "x.mp4"), t1_env, 32, 24, reference=True)

@@ -135,13 +135,13 @@ def test_training_state_round_trip_restores_adaptive_curricula(capsys):
 
 
 def test_resume_skips_a_truncated_newest_checkpoint(tmp_path, capsys):
-    from agile.run import common as cli
+    from agile.run import task_setup
 
     run = tmp_path / "exp" / "2026-01-01_00-00-00"
     run.mkdir(parents=True)
     torch.save({"iter": 6, "actor_state_dict": {}}, run / "model_6.pt")
     (run / "model_7.pt").write_bytes((run / "model_6.pt").read_bytes()[:40])  # a write cut short
-    assert cli.latest_checkpoint(str(tmp_path), "exp") == str(run / "model_6.pt")
+    assert task_setup.latest_checkpoint(str(tmp_path), "exp") == str(run / "model_6.pt")
     assert "skipping" in capsys.readouterr().out
 
 
@@ -165,7 +165,7 @@ def test_a_checkpoint_cut_short_is_refused_in_one_line_with_exit_2(command, tmp_
 
 
 def test_a_missing_checkpoint_is_refused_before_anything_is_built(capsys):
-    from agile.run import common as cli
+    from agile.run import arguments
     from agile.run.train import main
 
     with pytest.raises(SystemExit) as exit_info:
@@ -173,7 +173,7 @@ def test_a_missing_checkpoint_is_refused_before_anything_is_built(capsys):
     assert exit_info.value.code == 2 and "--checkpoint file not found: no/such/model_1.pt" in capsys.readouterr().err
     from agile.rl.checkpoints import TRUST_FLAG
 
-    assert cli.TRUST_FLAG == TRUST_FLAG
+    assert arguments.TRUST_FLAG == TRUST_FLAG
 
 
 def test_a_corrupted_terrain_cache_is_rebuilt_and_a_bad_terrain_is_never_written(tmp_path, monkeypatch, capsys):

@@ -226,22 +226,21 @@ def test_play_runs_sinusoidal_actions():
 
 def test_a_shipped_policy_runs_in_the_env_it_was_trained_in(tmp_path, monkeypatch, capsys):
     """A shipped policy with conditions in conditions.yaml (none has them now) gets them before the user's
-    overrides, which still win; play, eval and export all take the shipped policy through cli.shipped_policy."""
-    import argparse
-
+    overrides, which still win; play, eval and export all take the shipped policy through task_setup.shipped_policy."""
     import agile.tasks
-    from agile.run import common as cli
+    from agile.run import task_setup
 
     conditions = tmp_path / "conditions.yaml"
     conditions.write_text("Velocity-Height-G1-Teacher-v0:\n  trained_on: flat ground\n"
                           "  env_overrides: [env.scene.terrain=null, env.curriculum.terrain_levels=null]\n")
     monkeypatch.setattr(agile.tasks, "PRETRAINED_CONDITIONS", conditions)
-    args = argparse.Namespace(task="Velocity-Height-G1-v0", overrides=["env.num_envs=3"])
-    assert cli.shipped_policy(args).endswith("Velocity-Height-G1-Teacher-v0.pt")
-    assert args.overrides == ["env.scene.terrain=null", "env.curriculum.terrain_levels=null", "env.num_envs=3"]
+    given = ["env.num_envs=3"]
+    path, overrides = task_setup.shipped_policy(task="Velocity-Height-G1-v0", overrides=given)
+    assert path.endswith("Velocity-Height-G1-Teacher-v0.pt") and given == ["env.num_envs=3"]  # the caller's untouched
+    assert overrides == ["env.scene.terrain=null", "env.curriculum.terrain_levels=null", "env.num_envs=3"]
     assert "shipped policy: trained on flat ground" in capsys.readouterr().out
-    args = argparse.Namespace(task="Velocity-G1-History-v0", overrides=[])
-    assert cli.shipped_policy(args).endswith("Velocity-G1-History-v0.pt") and args.overrides == []
+    path, overrides = task_setup.shipped_policy(task="Velocity-G1-History-v0")
+    assert path.endswith("Velocity-G1-History-v0.pt") and overrides == []
 
 
 def test_eval_of_a_shipped_policy_trained_on_the_registered_task(tmp_path):
@@ -250,6 +249,9 @@ def test_eval_of_a_shipped_policy_trained_on_the_registered_task(tmp_path):
                     "--episode_length_s", "0.2", "--out", str(out_file))
     assert code == 0 and "shipped policy: trained on" not in out, out
     assert json.loads(out_file.read_text())["checkpoint"].endswith("Velocity-Height-G1-Teacher-v0.pt")
+    # a summary on the screen, every metric in the file
+    assert "Velocity-Height-G1-Teacher-v0: 2 episodes of 0.2 s (2 envs on cpu)" in out and "  fall_rate: " in out
+    assert f"[agile] metrics: {out_file}" in out and '"reward_per_step"' not in out, out
 
 
 def test_benchmark_runs_on_cpu(tmp_path):
@@ -296,7 +298,7 @@ def test_actor_only_policy_file_loads_like_a_checkpoint(trained_run, tmp_path):
     code, out = run("scripts/eval.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--device", "cpu",
                     "--checkpoint", str(actor_only), "--episode_length_s", "0.2", "--command", "0.3", "0", "0",
                     *FLAT_GROUND_ARGS)
-    assert code == 0 and '"fall_rate"' in out, out
+    assert code == 0 and "Velocity-T1-v0: 2 episodes of 0.2 s" in out and "  fall_rate: " in out, out  # the summary
 
 
 def test_export_and_sim2mujoco_scripts(trained_run, tmp_path):
@@ -402,7 +404,7 @@ def test_learning_curve_refuses_a_folder_without_logs(tmp_path):
 
 def test_error_by_command_bins_hand_values():
     import torch
-    from agile.run.eval_breakdowns import ErrorByCommand
+    from agile.run.metric_breakdowns import ErrorByCommand
 
     by_speed = ErrorByCommand((0.05, 0.5), "cpu")
     commanded = torch.tensor([0.0, 0.3, 0.4, 0.7])
@@ -417,7 +419,7 @@ def test_error_by_command_bins_hand_values():
 
 def test_error_by_command_gives_each_bins_standard_error_over_the_envs():
     import torch
-    from agile.run.eval_breakdowns import ErrorByCommand
+    from agile.run.metric_breakdowns import ErrorByCommand
 
     by_speed = ErrorByCommand((0.05,), "cpu")
     commanded = torch.zeros(3)  # three envs, all in the first bin
@@ -432,7 +434,7 @@ def test_error_by_command_gives_each_bins_standard_error_over_the_envs():
     assert one_env.rows()[0]["error_se"] is None  # no spread from one env
 
 def test_error_by_command_tables_read_like_the_docs():
-    from agile.run.eval_breakdowns import error_by_command_tables
+    from agile.run.metric_breakdowns import error_by_command_tables
 
     rows = [{"command": [0.0, 0.2], "error": 0.0486, "steps": 25}, {"command": [0.9, None], "error": 0.059, "steps": 75}]
     assert error_by_command_tables({"height_error_m_by_height_m": rows, "lin_vel_error_mps_by_speed_mps": []}) == (
@@ -456,15 +458,12 @@ def test_train_progress_bar_shows_the_eta_and_a_full_block_every_n_iterations(tm
 
 @pytest.mark.skipif(__import__("warp").is_cuda_available(), reason="the CPU fallback is what this checks")
 @pytest.mark.parametrize("num_envs, said", [(None, "running on CPU with 4 envs (a small count"),
-                                            (64, "running on CPU with 64 envs (as --num_envs asks)")])
+                                            (64, "running on CPU with 64 envs\n"), (1, "running on CPU with 1 env\n")])
 def test_the_cpu_fallback_says_the_env_count_it_builds(num_envs, said, capsys):
-    import argparse
+    from agile.run import task_setup
 
-    from agile.run import common as cli
-
-    args = argparse.Namespace(task="Velocity-T1-v0", num_envs=num_envs, device=None, seed=None, overrides=[])
-    env_cfg, _, device = cli.load_task(args)
-    assert device == "cpu" and env_cfg.num_envs == (num_envs or cli.CPU_DEFAULT_NUM_ENVS)
+    env_cfg, _, device = task_setup.load_task(task="Velocity-T1-v0", num_envs=num_envs)
+    assert device == "cpu" and env_cfg.num_envs == (num_envs or task_setup.CPU_DEFAULT_NUM_ENVS)
     assert f"no GPU found: {said}" in capsys.readouterr().out
 
 

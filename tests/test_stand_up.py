@@ -90,13 +90,13 @@ def stand_up_env(tmp_path_factory):
     import contextlib
     import io
 
-    from agile.run import common as cli
+    from agile.run import task_setup
 
     cache_dir = tmp_path_factory.mktemp("fallen_cache")
     env_cfg, agent_cfg = _small_env_cfg(cache_dir)
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        env = cli.make_env(TASK, env_cfg, "cpu")
+        env = task_setup.make_env(task=TASK, env_cfg=env_cfg, device="cpu")
     return env, agent_cfg, cache_dir, out.getvalue()
 
 
@@ -153,11 +153,11 @@ def _build(env_cfg) -> tuple[object, str]:
     import contextlib
     import io
 
-    from agile.run import common as cli
+    from agile.run import task_setup
 
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        env = cli.make_env(TASK, env_cfg, "cpu")
+        env = task_setup.make_env(task=TASK, env_cfg=env_cfg, device="cpu")
     return env, out.getvalue()
 
 

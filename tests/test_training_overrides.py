@@ -6,7 +6,7 @@ import pytest
 import torch
 from commands import FLAT_GROUND_ARGS, run_command
 
-from agile.run.common import overrides_not_repeated
+from agile.run.task_setup import overrides_not_repeated
 from agile.utils.config import configclass
 
 

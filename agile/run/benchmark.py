@@ -20,13 +20,14 @@ separate world, and the env.step and training rates are also given as ratios to 
 
 from __future__ import annotations
 
-import argparse
 import copy
 import json
 import tempfile
 import time
 
-from agile.run import common as cli
+from agile.run.arguments import command
+from agile.run import arguments, task_setup
+from agile.errors import AgileError
 from agile.run.training_timing import synchronize, time_training
 
 
@@ -154,7 +155,7 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
         env.sim, lambda: env.step(torch.rand_like(actions[0]) * 2 - 1), 20)
 
     agent_cfg.max_iterations = train_iterations
-    with tempfile.TemporaryDirectory() as log_dir, cli.quiet_stdout():
+    with tempfile.TemporaryDirectory() as log_dir, task_setup.quiet_stdout():
         training = time_training(training_runner(env, agent_cfg, log_dir), train_iterations)
     steps_per_iteration = n * agent_cfg.num_steps_per_env
     train = steps_per_iteration / training["iteration_s"]
@@ -180,8 +181,9 @@ def measure(task: str, env_cfg, agent_cfg, device: str, steps: int, train_iterat
     return result
 
 
+@command
 def main(argv=None) -> None:
-    parser = cli.new_parser(__doc__)
+    parser = arguments.new_parser(__doc__)
     parser.add_argument("--task", required=True, help="registered task ID, e.g. Velocity-G1-History-v0")
     parser.add_argument("--num_envs", type=int, nargs="+", default=[1024, 4096, 16384],
                         help="env counts to measure, one after another")
@@ -190,29 +192,45 @@ def main(argv=None) -> None:
     parser.add_argument("--train_iterations", type=int, default=20,
                         help="PPO iterations of the timed run for the training rate (after one untimed; at least 2)")
     parser.add_argument("--out", default=None, help="write the results as JSON here")
-    parser.add_argument("overrides", nargs="*", help=cli.OVERRIDE_HELP)
-    cli.add_recipe_arg(parser)
-    args = cli.parse(parser, argv)
-    if args.train_iterations < 2:
-        cli.fail(f"--train_iterations must be at least 2 (an iteration is timed from one iteration's log to the "
-                 f"next), got {args.train_iterations}")
+    parser.add_argument("overrides", nargs="*", help=arguments.OVERRIDE_HELP)
+    arguments.add_recipe_arg(parser)
+    args = arguments.parse(parser, argv)
+    if args.train_iterations < 2:  # refused before the simulator is imported (`benchmark` refuses it too)
+        raise AgileError(f"--train_iterations must be at least 2 (an iteration is timed from one iteration's log to "
+                         f"the next), got {args.train_iterations}")
 
-    from agile.run import multi_agent, multi_agent_benchmark
+    from agile.run.task_kinds import run_command
 
-    if multi_agent.is_multi_agent(args.task):
-        multi_agent_benchmark.benchmark(args.task, args.num_envs, args.device, args.steps, args.overrides, args.out)
-        return
+    run_command("benchmark", args.task, args)
+
+
+def benchmark(*, task: str, num_envs=(1024, 4096, 16384), device: str | None = None, steps: int = 200,
+              train_iterations: int = 20, overrides=()) -> list[dict]:
+    """Measure `task` at each env count of `num_envs`, one after another (`measure`: raw physics, env.step and
+    training rates, startup, memory, where an iteration goes); a row per count, each printed as JSON when measured."""
     import torch
 
+    if train_iterations < 2:
+        raise AgileError(f"train_iterations must be at least 2 (an iteration is timed from one iteration's log to the "
+                         f"next), got {train_iterations}")
     rows = []
-    for num_envs in args.num_envs:
-        run_args = argparse.Namespace(task=args.task, num_envs=num_envs, device=args.device, seed=None,
-                                      overrides=args.overrides)
-        env_cfg, agent_cfg, device = cli.load_task(run_args)
-        rows.append(measure(args.task, env_cfg, agent_cfg, device, args.steps, args.train_iterations))
+    for count in num_envs:
+        env_cfg, agent_cfg, device_used = task_setup.load_task(task=task, num_envs=count, device=device,
+                                                               overrides=overrides)
+        rows.append(measure(task, env_cfg, agent_cfg, device_used, steps, train_iterations))
         print(json.dumps(rows[-1]), flush=True)
-        if device.startswith("cuda"):
+        if device_used.startswith("cuda"):
             torch.cuda.empty_cache()
+    return rows
+
+
+def benchmark_single_agent(args) -> None:
+    """`agile benchmark` for every kind but multi-agent (`agile.run.task_kinds`): the rows and their tables."""
+    import torch
+
+    rows = benchmark(task=args.task, num_envs=args.num_envs, device=args.device, steps=args.steps,
+                     train_iterations=args.train_iterations, overrides=args.overrides)
+    device, _ = task_setup.resolve_device(args.device)
 
     name = torch.cuda.get_device_name() if str(device).startswith("cuda") else "CPU"
     print(f"\n{args.task} on {name} (env-steps/s; ratios to raw physics)")

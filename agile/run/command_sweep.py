@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import torch
 
-from agile.run import common as cli
-from agile.run.evaluation import evaluate_per_env, summarise
+from agile.errors import AgileError
+from agile.run.rollout_metrics import evaluate_per_env, summarise
 
 SETTLED_AFTER_S = 5.0
 """Episode time after which the reached value counts: a fallen start has got up, a new value has been reached."""
@@ -29,8 +29,8 @@ def swept_command(env):
     terms = {name: term for name, term in env.command_manager.terms.items()
              if term.command_error() is not None and term.command.shape[1] == 1}
     if len(terms) != 1:
-        cli.fail(f"--sweep_command holds a command of one value that measures its own error; this task has "
-                 f"{sorted(terms) or 'none'} (commands: {env.command_manager.active_terms})")
+        raise AgileError(f"--sweep_command holds a command of one value that measures its own error; this task has "
+                         f"{sorted(terms) or 'none'} (commands: {env.command_manager.active_terms})")
     return next(iter(terms.items()))
 
 
@@ -75,11 +75,11 @@ def command_sweep(env, policy, num_episodes: int, values: list[float],
                   settled_after_s: float = SETTLED_AFTER_S) -> list[dict]:
     name, term = swept_command(env)
     if env.num_envs < len(values):
-        cli.fail(f"--sweep_command has {len(values)} values: use at least that many envs (--num_envs)")
+        raise AgileError(f"--sweep_command has {len(values)} values: use at least that many envs (--num_envs)")
     episode_s = env.max_episode_length * env.step_dt
     if episode_s <= settled_after_s:
-        cli.fail(f"--episode_length_s must exceed {settled_after_s:g} s (the reached value counts from then on), "
-                 f"got {episode_s:g}")
+        raise AgileError(f"--episode_length_s must exceed {settled_after_s:g} s (the reached value counts from then "
+                         f"on), got {episode_s:g}")
     unit_name = term.command_error().command_name  # "height_m"
     value_index = torch.arange(env.num_envs, device=env.device) % len(values)  # of each env
     term.set_fixed_command(torch.tensor(values, device=env.device)[value_index].unsqueeze(1))

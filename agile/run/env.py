@@ -7,21 +7,26 @@ import dataclasses
 
 
 def build_env(task: str, env_cfg, device: str, use_cache: bool = True):
-    """The task's env (a ManagerBasedRLEnv, or a MultiAgentEnv for a multi-agent config). `use_cache=False`: a
-    fallen-state dataset is collected anew instead of loaded from its disk cache (the new one replaces it). Raises
+    """The task's env (a ManagerBasedRLEnv, or a MultiAgentEnv for a multi-agent config). `use_cache=False`: a task
+    that builds a dataset at its start (its task spec's `startup_dataset`, e.g. stand-up's fallen states) collects it
+    anew instead of loading its disk cache (the new one replaces it); other tasks have none to collect. Raises
     ConfigError or ValueError for a config the env cannot be built from."""
+    import agile.tasks
     from agile.marl import MultiAgentEnv, MultiAgentEnvCfg
     from agile.rl_env import ManagerBasedRLEnv
+    from agile.utils.config import load_entry_point
 
     if isinstance(env_cfg, MultiAgentEnvCfg):
         return MultiAgentEnv(env_cfg, task_name=task, device=device)
-    if not use_cache:
-        collect_fallen_states_anew(env_cfg)
+    startup_dataset = None if use_cache else agile.tasks.task_spec(task).startup_dataset
+    if startup_dataset is not None:
+        load_entry_point(startup_dataset)(env_cfg)
     return ManagerBasedRLEnv(env_cfg, task_name=task, device=device)
 
 
 def collect_fallen_states_anew(env_cfg) -> None:
-    """Every `reset_from_fallen_dataset` event of `env_cfg` collects its dataset instead of loading the cache."""
+    """The stand-up tasks' `startup_dataset`: every `reset_from_fallen_dataset` event of `env_cfg` collects its
+    dataset instead of loading the cache."""
     from agile.tasks.stand_up.fallen_states import FallenStateDatasetCfg, reset_from_fallen_dataset
     from agile.rl_env.managers import EventTerm
 

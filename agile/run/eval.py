@@ -10,20 +10,23 @@
 
 Each env runs `--num_episodes` episodes of `--episode_length_s` (pushes off unless --pushes); commands are drawn by
 the task's command term, or fixed with --command. Without --checkpoint the policy shipped with agile for the task is
-evaluated. Prints and writes JSON: the metrics of `agile.run.evaluation.evaluate` (what each key means is there).
+evaluated. Prints a summary; --out writes every metric as JSON: those of `agile.run.rollout_metrics.evaluate` (what each
+key means is there). From Python: `evaluate_checkpoint(task=..., ...)` returns them.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import typing
 
-from agile.run import common as cli
+from agile.run.arguments import command
+from agile.run import arguments, task_setup
+from agile.errors import AgileError
 
-from agile.run import multi_agent
-from agile.run.common import load_policy
-from agile.run.eval_breakdowns import error_by_command_tables
-from agile.run.evaluation import evaluate, evaluate_per_env, summarise, velocity_command_name
+from agile.run.task_kinds import run_command
+from agile.run.metric_breakdowns import error_by_command_tables
+from agile.run.rollout_metrics import evaluate, evaluate_per_env, summarise, velocity_command_name
 from agile.run.policy import inference_cfg
 from agile.run.sweep_plots import plot_sweep
 
@@ -40,13 +43,14 @@ def sweep(env, policy, num_episodes: int, cells: list[tuple[float, ...]], comman
 
     command_name = velocity_command_name(env, command_name)
     if command_name is None:
-        cli.fail(f"a sweep sets velocity commands; this task has none (commands: {env.command_manager.active_terms})")
+        raise AgileError(f"a sweep sets velocity commands; this task has none (commands: "
+                         f"{env.command_manager.active_terms})")
     term = env.command_manager.get_term(command_name)
     if len(cells[0]) != term.command.shape[1]:
-        cli.fail(f"the sweep gives {len(cells[0])} command values; {command_name} has {term.command.shape[1]} "
-                 "(--sweep_base_height is for tasks with a height command)")
+        raise AgileError(f"the sweep gives {len(cells[0])} command values; {command_name} has {term.command.shape[1]} "
+                         "(--sweep_base_height is for tasks with a height command)")
     if env.num_envs < len(cells):
-        cli.fail(f"the sweep has {len(cells)} cells: use at least that many envs (--num_envs)")
+        raise AgileError(f"the sweep has {len(cells)} cells: use at least that many envs (--num_envs)")
     cell_of_env = torch.arange(env.num_envs, device=env.device) % len(cells)
     term.set_fixed_command(torch.tensor(cells, device=env.device)[cell_of_env])
     result = evaluate_per_env(env, policy, num_episodes, command_name)
@@ -101,9 +105,110 @@ def run_command_sweep(args, env, policy, checkpoint: str, device: str) -> None:
         plot_sweep(args.out)
 
 
+class Evaluation(typing.NamedTuple):
+    """A policy ready to evaluate: the env built for it, the policy (observations -> actions), the checkpoint file and
+    the device."""
+    env: object
+    policy: object
+    checkpoint: str
+    device: str
+
+
+def set_fixed_velocity_command(env_cfg, task: str, velocity: tuple[float, float, float]) -> None:
+    """Every env commanded `velocity` (vx [m/s], vy [m/s], wz [rad/s]) by the task's velocity command (the command term
+    whose ranges hold lin_vel_x, lin_vel_y and ang_vel_z), none standing still."""
+    commands = {name: term for name, term in vars(env_cfg.commands or object()).items()
+                if all(hasattr(getattr(term, "ranges", None), f) for f in ("lin_vel_x", "lin_vel_y", "ang_vel_z"))}
+    if len(commands) != 1:
+        raise AgileError(f"command: {task} has {len(commands)} velocity commands ({sorted(commands)}); a fixed "
+                         "velocity command needs one")
+    command = next(iter(commands.values()))
+    vx, vy, wz = velocity
+    command.ranges.lin_vel_x, command.ranges.lin_vel_y, command.ranges.ang_vel_z = (vx, vx), (vy, vy), (wz, wz)
+    command.rel_standing_envs = 0.0
+
+
+def prepare_evaluation(*, task: str, checkpoint: str | None = None, num_envs: int | None = None,
+                       device: str | None = None, seed: int | None = None, rnn: str | None = None, overrides=(),
+                       episode_length_s: float = 20.0, pushes: bool = False,
+                       command: tuple[float, float, float] | None = None, trust_checkpoint: bool = False,
+                       collect_datasets_anew: bool = False) -> Evaluation:
+    """The env and the policy of an evaluation: `checkpoint` (default: the policy agile ships for `task`) in the
+    task's env for running a policy (`inference_cfg`) with `overrides`, episodes of `episode_length_s`, the interval
+    events (pushes) off unless `pushes`, and every env given the velocity `command` where one is given."""
+    checkpoint, overrides = task_setup.policy_to_run(task=task, checkpoint=checkpoint, overrides=overrides)
+    contents = task_setup.read_checkpoint(checkpoint, trust_checkpoint)
+    env_cfg, agent_cfg, device = task_setup.load_task(task=task, num_envs=num_envs, device=device, seed=seed,
+                                                      rnn=rnn, overrides=overrides)
+    task_setup.warn_overrides_not_repeated(contents, {"env": env_cfg}, "evaluate the task it was trained on")
+    env_cfg = inference_cfg(env_cfg)
+    if command is not None:
+        set_fixed_velocity_command(env_cfg, task, command)
+    env_cfg.episode_length_s = episode_length_s
+    if not pushes and env_cfg.events is not None:
+        from agile.rl_env.managers import EventTerm
+
+        for name, term in vars(env_cfg.events).items():
+            if isinstance(term, EventTerm) and term.mode == "interval":
+                setattr(env_cfg.events, name, None)
+    env = task_setup.make_env(task=task, env_cfg=env_cfg, device=device, collect_datasets_anew=collect_datasets_anew)
+    return Evaluation(env, task_setup.load_policy(contents, env, agent_cfg), checkpoint, device)
+
+
+def evaluate_checkpoint(*, task: str, checkpoint: str | None = None, num_envs: int | None = None,
+                        device: str | None = None, seed: int | None = None, rnn: str | None = None, overrides=(),
+                        num_episodes: int = 1, episode_length_s: float = 20.0, pushes: bool = False,
+                        command: tuple[float, float, float] | None = None, usd: str | None = None,
+                        video: str | None = None, trust_checkpoint: bool = False,
+                        collect_datasets_anew: bool = False) -> dict:
+    """Evaluate `checkpoint` (default: the shipped policy) on `task` (`prepare_evaluation`): every env runs
+    `num_episodes` episodes; the metrics of `agile.run.rollout_metrics.evaluate` (what each key means is there) and what
+    was evaluated. `usd` / `video`: the rollout recorded as an animated USD stage / env 0 rendered into an mp4."""
+    from agile.run.recorders import UsdRecorder, VideoRecorder
+
+    for path, field in ((usd, "usd"), (video, "video")):
+        if path is not None:
+            task_setup.check_writable(path, field)
+    env, policy, checkpoint, device = prepare_evaluation(
+        task=task, checkpoint=checkpoint, num_envs=num_envs, device=device, seed=seed, rnn=rnn, overrides=overrides,
+        episode_length_s=episode_length_s, pushes=pushes, command=command, trust_checkpoint=trust_checkpoint,
+        collect_datasets_anew=collect_datasets_anew)
+    try:
+        recorders = []
+        if usd:
+            recorders.append(UsdRecorder(usd, env, num_frames=num_episodes * env.max_episode_length))
+        if video:
+            recorders.append(VideoRecorder(video, env))
+        metrics = evaluate(env, policy, num_episodes, recorders=recorders)
+        for recorder in recorders:
+            recorder.close()
+    finally:
+        env.close()
+    metrics.update({"task": task, "checkpoint": checkpoint, "device": device,
+                    "command": list(command) if command is not None else None,
+                    "episode_length_s": episode_length_s, "pushes": pushes})
+    return metrics
+
+
+SUMMARY_KEYS = ("fall_rate", "mean_episode_length_s", "lin_vel_error_mps", "ang_vel_error_radps",
+                "base_height_error_m")
+"""The metrics an evaluation's summary shows, where the task measures them (the rest are in the JSON)."""
+
+
+def summary(metrics: dict) -> str:
+    """A few lines of what an evaluation measured: episodes, falls, the tracking errors, the episode metrics."""
+    lines = [f"{metrics['task']}: {metrics['episodes']} episodes of {metrics['episode_length_s']:g} s "
+             f"({metrics['num_envs']} envs on {metrics['device']}), policy {metrics['checkpoint']}"]
+    lines += [f"  {key}: {metrics[key]:.4g}" for key in SUMMARY_KEYS if metrics.get(key) is not None]
+    lines += [f"  {key}: {value:.4g}" for key, value in metrics.get("episode_metrics", {}).items()
+              if isinstance(value, (int, float))]
+    return "\n".join(lines)
+
+
+@command
 def main(argv=None) -> None:
-    parser = cli.new_parser(__doc__)
-    cli.add_common_args(parser, task_required=False)  # --plot_sweep alone builds nothing
+    parser = arguments.new_parser(__doc__)
+    arguments.add_common_args(parser, task_required=False)  # --plot_sweep alone builds nothing
     parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (default: the shipped policy); "
                         "for a multi-agent task its training run folder (the newest model of each group)")
     parser.add_argument("--command", type=float, nargs=3, default=None, metavar=("VX", "VY", "WZ"),
@@ -121,72 +226,48 @@ def main(argv=None) -> None:
                         "own error (HeightTracking: the height [m]) and report where the robot settles, per value")
     parser.add_argument("--plot_sweep", default=None, metavar="SWEEP.json",
                         help="only draw a sweep's JSON (no env, no policy): the heat map, or where the envs settled")
-    parser.add_argument("--out", default=None, help="write the metrics as JSON here")
+    parser.add_argument("--out", default=None, help="write the metrics as JSON here (the command prints a summary)")
     parser.add_argument("--usd", default=None, metavar="PATH.usd", help="record the rollout as an animated USD stage")
     parser.add_argument("--video", default=None, metavar="PATH.mp4", help="render env 0 headless into an mp4")
-    cli.add_checkpoint_args(parser)
-    args = cli.parse(parser, argv)
+    arguments.add_checkpoint_args(parser)
+    args = arguments.parse(parser, argv)
 
     if args.plot_sweep:
         if not os.path.isfile(args.plot_sweep):
-            cli.fail(f"--plot_sweep {args.plot_sweep}: no such file")
+            raise AgileError(f"--plot_sweep {args.plot_sweep}: no such file")
         plot_sweep(args.plot_sweep)
         return
     if args.task is None:
         parser.error("the following arguments are required: --task")
     if args.sweep_command is not None and (args.sweep_lin_vel_x is not None or args.command is not None):
-        cli.fail("--sweep_command holds its own commands: not with --sweep_lin_vel_x or --command")
-    if multi_agent.is_multi_agent(args.task):
-        multi_agent.eval_main(args)
-        return
-    checkpoint = args.checkpoint or cli.shipped_policy(args)
-    if checkpoint is None:
-        cli.fail(f"no --checkpoint given and agile ships no policy for {args.task}")
-    contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint)
-    env_cfg, agent_cfg, device = cli.load_task(args)
-    cli.warn_overrides_not_repeated(contents, {"env": env_cfg}, "evaluate the task it was trained on")
-    env_cfg = inference_cfg(env_cfg)
-    if args.command is not None:
-        command = getattr(env_cfg.commands, "base_velocity", None)
-        if command is None:
-            cli.fail(f"--command sets the base_velocity command; {args.task} has none")
-        vx, vy, wz = args.command
-        command.ranges.lin_vel_x, command.ranges.lin_vel_y, command.ranges.ang_vel_z = (vx, vx), (vy, vy), (wz, wz)
-        command.rel_standing_envs = 0.0
-    env_cfg.episode_length_s = args.episode_length_s
-    if not args.pushes and env_cfg.events is not None:
-        from agile.rl_env.managers import EventTerm
+        raise AgileError("--sweep_command holds its own commands: not with --sweep_lin_vel_x or --command")
+    run_command("eval", args.task, args)
 
-        for name, term in vars(env_cfg.events).items():
-            if isinstance(term, EventTerm) and term.mode == "interval":
-                setattr(env_cfg.events, name, None)
-    env = cli.make_env(args.task, env_cfg, device, use_cache=not args.no_cache)
-    from agile.run.recording import UsdRecorder, VideoRecorder
 
-    recorders = []
-    if args.usd:
-        recorders.append(UsdRecorder(args.usd, env, num_frames=args.num_episodes * env.max_episode_length))
-    if args.video:
-        recorders.append(VideoRecorder(args.video, env))
-    policy = load_policy(contents, env, agent_cfg)
-    if args.sweep_command is not None:
-        run_command_sweep(args, env, policy, checkpoint, device)
+def eval_single_agent(args) -> None:
+    """`agile eval` for every kind but multi-agent (`agile.run.task_kinds`)."""
+    options = dict(task=args.task, checkpoint=args.checkpoint, num_envs=args.num_envs, device=args.device,
+                   seed=args.seed, rnn=args.rnn, overrides=args.overrides, episode_length_s=args.episode_length_s,
+                   pushes=args.pushes, command=args.command, trust_checkpoint=args.trust_checkpoint,
+                   collect_datasets_anew=args.no_cache)
+    if args.sweep_command is not None or args.sweep_lin_vel_x is not None:
+        if args.usd or args.video:
+            raise AgileError("--usd and --video record an evaluation's rollout, not a sweep's")
+        env, policy, checkpoint, device = prepare_evaluation(**options)
+        sweep_runner = run_command_sweep if args.sweep_command is not None else run_sweep
+        sweep_runner(args, env, policy, checkpoint, device)
         return
-    if args.sweep_lin_vel_x is not None:
-        run_sweep(args, env, policy, checkpoint, device)
-        return
-    metrics = evaluate(env, policy, args.num_episodes, recorders=recorders)
-    for recorder in recorders:
-        recorder.close()
-    metrics.update({"task": args.task, "checkpoint": checkpoint, "device": device, "command": args.command,
-                    "episode_length_s": args.episode_length_s, "pushes": args.pushes})
-    print(json.dumps(metrics, indent=2))
+    metrics = evaluate_checkpoint(**options, num_episodes=args.num_episodes, usd=args.usd, video=args.video)
+    print(summary(metrics))
     tables = error_by_command_tables(metrics["error_by_command"])
     if tables:
         print(f"[agile] tracking errors by what was commanded:\n{tables}")
     if args.out:
         with open(args.out, "w") as f:
             json.dump(metrics, f, indent=2)
+        print(f"[agile] metrics: {args.out}")
+    else:
+        print("[agile] --out FILE.json writes every metric (per term, per command bin, per variant) as JSON")
 
 
 if __name__ == "__main__":

@@ -12,17 +12,17 @@ eval settings, the run only proves that every policy loads and steps: criteria a
 
 from __future__ import annotations
 
-import argparse
 import importlib.util
 import json
 import os
 import sys
 
-from agile.run import common as cli
-from agile.run.common import load_policy
+from agile.run.arguments import command
+from agile.run import arguments, task_setup
+from agile.errors import AgileError
 from agile.run.policy import inference_cfg
 
-from agile.run.evaluation import evaluate
+from agile.run.rollout_metrics import evaluate
 
 
 def disable_interval_events(env_cfg) -> None:
@@ -53,7 +53,7 @@ def source_commit() -> str:
         return os.environ["AGILE_SOURCE_COMMIT"]
 
     def git(*args) -> str:
-        return subprocess.run(["git", "-C", str(cli.REPO_ROOT), *args], capture_output=True, text=True,
+        return subprocess.run(["git", "-C", str(task_setup.REPO_ROOT), *args], capture_output=True, text=True,
                               check=True).stdout.strip()
 
     try:
@@ -64,24 +64,25 @@ def source_commit() -> str:
     return commit + (" + uncommitted changes" if dirty else "")
 
 
-def evaluate_task(entry, args) -> dict:
-    """Build the task's env in its shipped policy's training conditions, run the policy, return the metrics."""
+def evaluate_task(entry, *, device: str | None = None, seed: int | None = None, num_envs: int | None = None,
+                  num_episodes: int | None = None, episode_length_s: float | None = None) -> dict:
+    """Build the task's env in its shipped policy's training conditions, run the policy, return the metrics. The
+    counts and the episode length not given are the task's evaluation settings (its catalogue entry's)."""
     settings = dict(entry.eval_settings)
-    for key in ("num_envs", "num_episodes", "episode_length_s"):
-        if getattr(args, key) is not None:
-            settings[key] = getattr(args, key)
+    given = {"num_envs": num_envs, "num_episodes": num_episodes, "episode_length_s": episode_length_s}
+    settings.update({key: value for key, value in given.items() if value is not None})
     overrides = list(settings.pop("overrides", []))  # the task's evaluation setting, e.g. a motion from its start
-    task_args = argparse.Namespace(task=entry.task, num_envs=settings["num_envs"], device=args.device, seed=args.seed,
-                                   overrides=overrides, rnn=None)
-    checkpoint = cli.shipped_policy(task_args)  # prepends the shipped policy's training conditions
-    contents = cli.read_checkpoint(checkpoint, trust=False)
-    env_cfg, agent_cfg, device = cli.load_task(task_args)
+    shipped = task_setup.shipped_policy(task=entry.task, overrides=overrides)  # its training conditions go first
+    checkpoint = shipped.path
+    contents = task_setup.read_checkpoint(checkpoint, trust=False)
+    env_cfg, agent_cfg, device = task_setup.load_task(task=entry.task, num_envs=settings["num_envs"], device=device,
+                                                 seed=seed, overrides=shipped.overrides)
     env_cfg = inference_cfg(env_cfg)
     env_cfg.episode_length_s = settings["episode_length_s"]
     disable_interval_events(env_cfg)
-    env = cli.make_env(entry.task, env_cfg, device)
+    env = task_setup.make_env(task=entry.task, env_cfg=env_cfg, device=device)
     try:
-        policy = load_policy(contents, env, agent_cfg)
+        policy = task_setup.load_policy(contents, env, agent_cfg)
         metrics = evaluate(env, policy, settings["num_episodes"])
     finally:
         env.close()
@@ -227,8 +228,9 @@ def plot_error_by_command(result: dict, out_dir: str, plt) -> str:
     return name
 
 
+@command
 def main(argv=None) -> int:
-    parser = cli.new_parser(__doc__)
+    parser = arguments.new_parser(__doc__)
     parser.add_argument("--out", required=True, help="folder for <task>.json, report.md and the plots")
     parser.add_argument("--device", default=None, help="cuda:0 or cpu (default: cuda:0 when a GPU is present)")
     parser.add_argument("--num_envs", type=int, default=None, help="envs per task (default: each task's eval setting)")
@@ -237,7 +239,7 @@ def main(argv=None) -> int:
     parser.add_argument("--tasks", nargs="+", default=None, help="only these tasks (default: every one with a policy)")
     parser.add_argument("--seed", type=int, default=None, help="random seed")
     parser.add_argument("--verbose", action="store_true", help="show Warp's kernel loads and library warnings")
-    args = cli.parse(parser, argv)
+    args = arguments.parse(parser, argv)
     from agile.tasks.catalogue import evaluated_tasks
 
     entries = evaluated_tasks()
@@ -245,13 +247,14 @@ def main(argv=None) -> int:
         by_name = {e.task: e for e in entries}
         unknown = [t for t in args.tasks if t not in by_name]
         if unknown:
-            cli.fail(f"no shipped policy to evaluate for {unknown}. Tasks with one: {sorted(by_name)}")
+            raise AgileError(f"no shipped policy to evaluate for {unknown}. Tasks with one: {sorted(by_name)}")
         entries = [by_name[t] for t in args.tasks]
     os.makedirs(args.out, exist_ok=True)
     results = []
     for entry in entries:
         print(f"[agile] eval_all: {entry.task}", flush=True)
-        result = evaluate_task(entry, args)
+        result = evaluate_task(entry, device=args.device, seed=args.seed, num_envs=args.num_envs,
+                               num_episodes=args.num_episodes, episode_length_s=args.episode_length_s)
         with open(os.path.join(args.out, f"{entry.task}.json"), "w") as f:
             json.dump(result, f, indent=2)
         results.append(result)

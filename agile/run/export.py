@@ -19,11 +19,15 @@ from __future__ import annotations
 
 import os
 
-from agile.run import common as cli
+from agile.run import arguments, task_setup
+from agile.errors import AgileError
 
-from agile.run import multi_agent
-from agile.run.common import load_runner
+from agile.run.task_kinds import run_command
+from agile.run.arguments import command
 from agile.run.policy import inference_cfg
+
+
+EXPORT_FORMATS = ("torchscript", "leapp")
 
 
 def export(task: str, env, agent_cfg, runner, out_dir: str) -> dict:
@@ -43,7 +47,7 @@ def export_leapp(env, agent_cfg, runner, out_dir: str) -> dict:
     try:
         import leapp  # noqa: F401
     except ImportError:
-        cli.fail("--format leapp needs the leapp package: pip install 'agile[leapp]'")
+        raise AgileError("--format leapp needs the leapp package: pip install 'agile[leapp]'")
     from agile.export.io_descriptor import io_descriptor
     from agile.export.leapp_bundle import UnsupportedPolicyError, write_bundle
 
@@ -51,35 +55,54 @@ def export_leapp(env, agent_cfg, runner, out_dir: str) -> dict:
         return {"leapp": write_bundle(io_descriptor(env, agent_cfg), runner.alg.get_policy().as_onnx(verbose=False),
                                       out_dir)}
     except UnsupportedPolicyError as err:
-        cli.fail(f"--format leapp: {err}")
+        raise AgileError(f"--format leapp: {err}")
 
 
+def export_checkpoint(*, task: str, out_dir: str, checkpoint: str | None = None, format: str = "torchscript",
+                      device: str | None = None, num_envs: int = 1, seed: int | None = None, rnn: str | None = None,
+                      overrides: list[str] | tuple = (), trust_checkpoint: bool = False,
+                      collect_datasets_anew: bool = False) -> dict:
+    """Export `checkpoint` (default: the policy agile ships for `task`) into `out_dir`: `format` "torchscript"
+    (policy.pt, policy.onnx, io_descriptor.yaml) or "leapp" (a bundle in out_dir/<task>/). Builds one env of the task
+    (`num_envs` of them, with `overrides`) to describe the policy's inputs and outputs. Returns {kind: path} of what
+    it wrote."""
+    if format not in EXPORT_FORMATS:
+        raise AgileError(f"format must be one of {', '.join(EXPORT_FORMATS)}, got {format!r}")
+    task_setup.check_writable(out_dir, "out_dir")
+    checkpoint, overrides = task_setup.policy_to_run(task=task, checkpoint=checkpoint, overrides=overrides)
+    contents = task_setup.read_checkpoint(checkpoint, trust_checkpoint)
+    env_cfg, agent_cfg, device = task_setup.load_task(task=task, num_envs=num_envs, device=device, seed=seed, rnn=rnn,
+                                                 overrides=overrides)
+    env = task_setup.make_env(task=task, env_cfg=inference_cfg(env_cfg), device=device,
+                         collect_datasets_anew=collect_datasets_anew)
+    try:
+        runner = task_setup.load_runner(contents, env, agent_cfg)
+        return (export_leapp(env, agent_cfg, runner, out_dir) if format == "leapp"
+                else export(task, env, agent_cfg, runner, out_dir))
+    finally:
+        env.close()
+
+
+@command
 def main(argv=None) -> None:
-    parser = cli.new_parser(__doc__)
-    cli.add_common_args(parser)
+    parser = arguments.new_parser(__doc__)
+    arguments.add_common_args(parser)
     parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (default: the shipped policy)")
     parser.add_argument("--out", required=True, help="output folder")
-    parser.add_argument("--format", choices=["torchscript", "leapp"], default="torchscript",
+    parser.add_argument("--format", choices=EXPORT_FORMATS, default="torchscript",
                         help="torchscript: policy.pt, policy.onnx and io_descriptor.yaml; leapp: a LEAPP bundle in "
                              "<out>/<task>/ (raw robot state in, joint targets out)")
-    cli.add_checkpoint_args(parser)
-    args = cli.parse(parser, argv)
-    if multi_agent.is_multi_agent(args.task):
-        if args.format != "torchscript":
-            cli.fail(f"--format {args.format}: a multi-agent task exports each group's policy as TorchScript")
-        multi_agent.export_main(args)
-        return
-    if args.num_envs is None:
-        args.num_envs = 1
-    checkpoint = args.checkpoint or cli.shipped_policy(args)
-    if checkpoint is None:
-        cli.fail(f"no --checkpoint given and agile ships no policy for {args.task}")
-    contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint)
-    env_cfg, agent_cfg, device = cli.load_task(args)
-    env = cli.make_env(args.task, inference_cfg(env_cfg), device)
-    runner = load_runner(contents, env, agent_cfg)
-    paths = (export_leapp(env, agent_cfg, runner, args.out) if args.format == "leapp"
-             else export(args.task, env, agent_cfg, runner, args.out))
+    arguments.add_checkpoint_args(parser)
+    args = arguments.parse(parser, argv)
+    run_command("export", args.task, args)
+
+
+def export_single_agent(args) -> None:
+    """`agile export` for every kind but multi-agent (`agile.run.task_kinds`)."""
+    paths = export_checkpoint(task=args.task, out_dir=args.out, checkpoint=args.checkpoint, format=args.format,
+                              device=args.device, num_envs=args.num_envs or 1, seed=args.seed, rnn=args.rnn,
+                              overrides=args.overrides, trust_checkpoint=args.trust_checkpoint,
+                              collect_datasets_anew=args.no_cache)
     for kind, path in paths.items():
         print(f"[agile] {kind}: {path}")
 

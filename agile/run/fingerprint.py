@@ -103,7 +103,7 @@ def shipped_policies() -> list[ShippedPolicy]:
         task, _, variant = file.stem.partition(".")
         overrides = [f"env.{o}" for o in agile.tasks.pretrained_policy_conditions(task)[1]]
         if variant:  # one policy per value of a config field (a motion): <task>.<value>.pt
-            overrides.append(f"env.{agile.tasks.task_spec(task).kwargs['shipped_policy_per']}={variant}")
+            overrides.append(f"env.{agile.tasks.task_spec(task).shipped_policy_per}={variant}")
         policies.append(ShippedPolicy(file=file, task=task, overrides=tuple(overrides)))
     return policies
 

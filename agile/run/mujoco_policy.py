@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from agile.run import common as cli
+from agile.errors import AgileError
 from agile.run.mujoco_robot import rotate_inverse
 from agile.utils.output import quiet_python_output
 
@@ -166,8 +166,8 @@ def read_bundle(path: str) -> dict:
     bundle = yaml.safe_load(Path(path).read_text())
     configs = bundle.get("pipeline", {}).get("configs", {})
     if "robot" not in configs or "task" not in configs:
-        cli.fail(f"{path}: not a LEAPP bundle written by agile export --format leapp (its pipeline configs name no "
-                 f"robot and task)")
+        raise AgileError(f"{path}: not a LEAPP bundle written by agile export --format leapp (its pipeline configs "
+                         f"name no robot and task)")
     return bundle
 
 
@@ -190,7 +190,7 @@ class BundleRuntime:
         try:
             from leapp import InferenceManager
         except ImportError:
-            cli.fail("--bundle needs the leapp package: pip install 'agile[leapp]'")
+            raise AgileError("--bundle needs the leapp package: pip install 'agile[leapp]'")
 
         self.torch = torch
         bundle = yaml_load(path)

@@ -8,21 +8,13 @@ import os
 import sys
 from pathlib import Path
 
-from agile.run import common as cli
+from agile.run import arguments, task_setup
+from agile.errors import AgileError
 from agile.run.policy import inference_cfg
 
 
-def is_multi_agent(task: str) -> bool:
-    import agile.tasks
-
-    try:
-        return agile.tasks.task_kind(task) == "multi_agent"
-    except KeyError as err:
-        cli.fail(err.args[0])
-
-
 def make_world(task: str, env_cfg, device: str):
-    world = cli.make_env(task, env_cfg, device)
+    world = task_setup.make_env(task=task, env_cfg=env_cfg, device=device)
     print(f"[agile] agents {list(world.agents)}; schedule (physics steps, {world.physics_dt_s * 1000:g} ms): "
           f"{world.schedule.describe()}")
     return world
@@ -34,9 +26,9 @@ def group_files(specs: list[str] | None, groups, what: str) -> dict[str, str]:
     for spec in specs or []:
         group, sep, path = spec.partition("=")
         if not sep or group not in groups:
-            cli.fail(f"{what} takes GROUP=PATH with GROUP one of {list(groups)}, got '{spec}'")
+            raise AgileError(f"{what} takes GROUP=PATH with GROUP one of {list(groups)}, got '{spec}'")
         if not os.path.isfile(path):
-            cli.fail(f"{what} file not found: {path}")
+            raise AgileError(f"{what} file not found: {path}")
         files[group] = path
     return files
 
@@ -47,19 +39,19 @@ def run_checkpoints(run_dir: str, groups) -> dict[str, str]:
     for group in groups:
         models = sorted(Path(run_dir, group).glob("model_*.pt"), key=lambda p: int(p.stem.split("_")[1]))
         if not models:
-            cli.fail(f"no checkpoint of group '{group}' under {Path(run_dir, group)}")
+            raise AgileError(f"no checkpoint of group '{group}' under {Path(run_dir, group)}")
         found[group] = str(models[-1])
     return found
 
 
 def check_train_args(args) -> None:
     if args.video or args.init_action_std is not None or args.rnn:
-        cli.fail("--video, --init_action_std and --rnn are single-agent options (multi-agent training takes "
-                 "--init_policy GROUP=PATH, --resume and --checkpoint RUN_FOLDER)")
+        raise AgileError("--video, --init_action_std and --rnn are single-agent options (multi-agent training takes "
+                         "--init_policy GROUP=PATH, --resume and --checkpoint RUN_FOLDER)")
     if args.checkpoint:
         check_run_folder(args.checkpoint)
     if (args.resume or args.checkpoint) and args.init_policy:
-        cli.fail("--init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
+        raise AgileError("--init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
 
 
 def latest_run(log_root: str, experiment: str, groups) -> str:
@@ -67,32 +59,39 @@ def latest_run(log_root: str, experiment: str, groups) -> str:
     runs = sorted(p for p in Path(log_root, experiment).glob("*")
                   if p.is_dir() and all(list((p / g).glob("model_*.pt")) for g in groups))
     if not runs:
-        cli.fail(f"no run with a checkpoint of every group {list(groups)} under {Path(log_root, experiment)}")
+        raise AgileError(f"no run with a checkpoint of every group {list(groups)} under {Path(log_root, experiment)}")
     return str(runs[-1])
 
 
-def train(args, env_cfg, agent_cfg, device: str) -> None:
+def train(args, rank):
+    """`agile.run.train.train` for a multi-agent task (`args`: its `TrainOptions`): every agent group trained, its
+    policy exported; a `TrainResult`."""
     from agile.marl.runner import MultiAgentRunner
+    from agile.run.train import TrainResult, run_configs
     from agile.rl.checkpoints import restore_runner
     from agile.rl.progress import show_progress
     from agile.rl.rsl_rl_adapter import set_git_status_repos
     from agile.utils.config import ConfigError
 
+    check_train_args(args)
+    if rank is not None:
+        raise AgileError("--distributed trains single-agent tasks; a multi-agent task trains on one device")
+    env_cfg, agent_cfg, device = run_configs(args)
     init_files = group_files(args.init_policy, agent_cfg.groups, "--init_policy")
-    init_contents = {g: cli.read_checkpoint(p, args.trust_checkpoint) for g, p in init_files.items()}
+    init_contents = {g: task_setup.read_checkpoint(p, args.trust_checkpoint) for g, p in init_files.items()}
     resume_files = {}
     if args.resume or args.checkpoint:
         run_dir = args.checkpoint or latest_run(args.log_root, agent_cfg.experiment_name, agent_cfg.groups)
         resume_files = run_checkpoints(run_dir, agent_cfg.groups)
-    resume_contents = {g: cli.read_checkpoint(p, args.trust_checkpoint) for g, p in resume_files.items()}
+    resume_contents = {g: task_setup.read_checkpoint(p, args.trust_checkpoint) for g, p in resume_files.items()}
     world = make_world(args.task, env_cfg, device)
-    log_dir = cli.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
-    cli.dump_configs(log_dir, env_cfg, agent_cfg)
+    log_dir = task_setup.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
+    task_setup.dump_configs(log_dir, env_cfg, agent_cfg)
     try:
-        with cli.quiet_stdout():
+        with task_setup.quiet_stdout():
             runner = MultiAgentRunner(world, agent_cfg, log_dir, str(world.device))
     except ConfigError as err:
-        cli.fail(str(err))
+        raise AgileError(str(err)) from err
     for group, contents in resume_contents.items():
         print(f"[agile] group '{group}': resuming from {resume_files[group]}")
         restore_runner(runner.runners[group], contents)
@@ -104,7 +103,7 @@ def train(args, env_cfg, agent_cfg, device: str) -> None:
     if args.progress == "bar":
         print("[agile] --progress bar: a multi-agent run prints each group's block every iteration instead")
     for group_runner in runner.runners.values():
-        set_git_status_repos(group_runner, cli.git_repos())
+        set_git_status_repos(group_runner, task_setup.git_repos())
         # rsl-rl's block every iteration; into a file without its terminal escape codes
         show_progress(group_runner, "log", args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
     runner.learn(agent_cfg.max_iterations)
@@ -112,6 +111,7 @@ def train(args, env_cfg, agent_cfg, device: str) -> None:
     export_groups(runner, export_dir)
     print(f"[agile] logs and checkpoints of each group in {log_dir}/<group>, its exported policy in "
           f"{export_dir}/<group>")
+    return TrainResult(log_dir=log_dir, checkpoint=None, exported={"groups": export_dir})
 
 
 def export_groups(runner, out_dir: str) -> None:
@@ -201,26 +201,26 @@ def restored_runner(world, agent_cfg, run_dir: str | None, trust: bool):
     from agile.rl.checkpoints import restore_runner
 
     files = run_checkpoints(run_dir, agent_cfg.groups)
-    with cli.quiet_stdout():
+    with task_setup.quiet_stdout():
         runner = MultiAgentRunner(world, agent_cfg, None, str(world.device))
     for group, path in files.items():
-        restore_runner(runner.runners[group], cli.read_checkpoint(path, trust))
+        restore_runner(runner.runners[group], task_setup.read_checkpoint(path, trust))
     return runner, files
 
 
 def check_run_folder(checkpoint: str | None) -> str:
     if checkpoint is None or not os.path.isdir(checkpoint):
-        cli.fail(f"--checkpoint of a multi-agent task is a training run folder (<run>/<group>/model_<it>.pt), "
-                 f"got {checkpoint}")
+        raise AgileError(f"--checkpoint of a multi-agent task is a training run folder (<run>/<group>/model_<it>.pt), "
+                         f"got {checkpoint}")
     return checkpoint
 
 
 def run_main(args, episodes: int | None, num_steps: int | None) -> dict:
     """eval.py (`episodes` per env) and play.py (`num_steps` steps of the world) for a multi-agent task."""
-    from agile.run.recording import VideoRecorder
+    from agile.run.recorders import VideoRecorder
 
     run_dir = check_run_folder(args.checkpoint)
-    env_cfg, agent_cfg, device = cli.load_task(args)
+    env_cfg, agent_cfg, device = task_setup.load_task(**arguments.task_options(args))
     if getattr(args, "episode_length_s", None) is not None:
         env_cfg.episode_length_s = args.episode_length_s
     run_checkpoints(run_dir, agent_cfg.groups)  # a missing group is reported before the build
@@ -242,29 +242,43 @@ def run_main(args, episodes: int | None, num_steps: int | None) -> dict:
             "num_envs": world.num_envs, "episode_length_s": world.max_episode_length_s}
 
 
-def eval_main(args) -> None:
-    metrics = run_main(args, args.num_episodes, None)
-    metrics["pushes"] = args.pushes
-    print(json.dumps(metrics, indent=2))
-    if args.out:
-        with open(args.out, "w") as f:
-            json.dump(metrics, f, indent=2)
-
-
-def play_main(args, num_steps: int) -> None:
-    if args.viewer == "viser" or args.usd or args.sinusoidal:
-        cli.fail("a multi-agent task plays headless with its trained groups (--checkpoint RUN_FOLDER, --video); "
-                 "--viewer, --usd and --sinusoidal are single-agent options")
-    metrics = run_main(args, None, num_steps)
+def print_agents(metrics: dict) -> None:
     for name, m in metrics["agents"].items():
         print(f"[agile] {name} at {m['control_hz']:g} Hz: falls {m['falls']}, linear tracking error "
               f"{m['lin_vel_error_mps']:.3f} m/s")
 
 
+def eval_main(args) -> None:
+    """`agile eval` for a multi-agent task: each agent's summary printed, every metric in --out."""
+    if any(getattr(args, name) is not None for name in ("command", "sweep_lin_vel_x", "sweep_command", "usd")):
+        raise AgileError("--command, the sweeps and --usd are single-agent options (a multi-agent task takes --video)")
+    metrics = run_main(args, args.num_episodes, None)
+    metrics["pushes"] = args.pushes
+    print_agents(metrics)
+    if args.out:
+        with open(args.out, "w") as f:
+            json.dump(metrics, f, indent=2)
+        print(f"[agile] metrics: {args.out}")
+
+
+def play_main(args) -> None:
+    """`agile play` for a multi-agent task: headless, its trained groups, for --num_steps steps."""
+    from agile.run.play import DEFAULT_HEADLESS_STEPS
+
+    if args.viewer == "viser" or args.usd or args.sinusoidal:
+        raise AgileError("a multi-agent task plays headless with its trained groups (--checkpoint RUN_FOLDER, "
+                         "--video); --viewer, --usd and --sinusoidal are single-agent options")
+    if args.video_reference:
+        raise AgileError("--video_reference: a multi-agent task's commands have no reference pose")
+    print_agents(run_main(args, None, args.num_steps or DEFAULT_HEADLESS_STEPS))
+
+
 def export_main(args) -> None:
-    """export.py for a multi-agent task: every group of a training run, into <out>/<group>/."""
+    """`agile export` for a multi-agent task: every group of a training run, as TorchScript into <out>/<group>/."""
+    if args.format != "torchscript":
+        raise AgileError(f"--format {args.format}: a multi-agent task exports each group's policy as TorchScript")
     run_dir = check_run_folder(args.checkpoint)
-    env_cfg, agent_cfg, device = cli.load_task(args)
+    env_cfg, agent_cfg, device = task_setup.load_task(**arguments.task_options(args))
     world = make_world(args.task, evaluation_cfg(env_cfg, pushes=False), device)
     runner, _ = restored_runner(world, agent_cfg, run_dir, args.trust_checkpoint)
     export_groups(runner, args.out)

@@ -8,11 +8,10 @@ its own world of the same env count.
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
 
-from agile.run import common as cli
+from agile.run import task_setup
 from agile.run.training_timing import synchronize
 
 
@@ -32,8 +31,7 @@ def measure_world(task: str, num_envs: int, device: str | None, calls: int, over
 
     from agile.run.multi_agent import make_world
 
-    args = argparse.Namespace(task=task, num_envs=num_envs, device=device, seed=None, overrides=overrides)
-    env_cfg, _, device = cli.load_task(args)
+    env_cfg, _, device = task_setup.load_task(task=task, num_envs=num_envs, device=device, overrides=overrides)
     world = make_world(task, env_cfg, device)
     dims = {n: a.action_manager.total_action_dim for n, a in world.agents.items()}
 
@@ -48,9 +46,8 @@ def measure_world(task: str, num_envs: int, device: str | None, calls: int, over
 def measure_single(task: str, num_envs: int, device: str, calls: int, overrides: list[str]) -> dict:
     import torch
 
-    args = argparse.Namespace(task=task, num_envs=num_envs, device=device, seed=None, overrides=overrides)
-    env_cfg, _, device = cli.load_task(args)
-    env = cli.make_env(task, env_cfg, device)
+    env_cfg, _, device = task_setup.load_task(task=task, num_envs=num_envs, device=device, overrides=overrides)
+    env = task_setup.make_env(task=task, env_cfg=env_cfg, device=device)
     dim = env.action_manager.total_action_dim
 
     def step():
@@ -64,7 +61,7 @@ def benchmark(task: str, num_envs_list: list[int], device: str | None, steps: in
               out: str | None) -> None:
     import agile.tasks
 
-    baselines = agile.tasks.task_spec(task).kwargs.get("single_agent_baselines", {})
+    baselines = agile.tasks.task_spec(task).single_agent_baselines
     rows = []
     for num_envs in num_envs_list:
         world = measure_world(task, num_envs, device, steps, overrides)
@@ -86,3 +83,8 @@ def benchmark(task: str, num_envs_list: list[int], device: str | None, steps: in
     if out:
         with open(out, "w") as f:
             json.dump({"task": task, "results": rows}, f, indent=2)
+
+
+def benchmark_main(args) -> None:
+    """`agile benchmark` for a multi-agent task: the world's step against the sum of its agents' single-robot tasks."""
+    benchmark(args.task, args.num_envs, args.device, args.steps, args.overrides, args.out)

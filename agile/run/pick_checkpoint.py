@@ -20,7 +20,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from agile.run import common as cli
+from agile.run.arguments import command
+from agile.run import arguments, task_setup
+from agile.errors import AgileError
 
 
 def run_checkpoints(run_dir: Path, every: int) -> list[tuple[int, Path]]:
@@ -61,8 +63,9 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+@command
 def main(argv=None) -> None:
-    parser = cli.new_parser(__doc__)
+    parser = arguments.new_parser(__doc__)
     parser.add_argument("--task", required=True, help="the registered task the run trained")
     parser.add_argument("--run", required=True, help="the training run's folder (its model_<iteration>.pt files)")
     parser.add_argument("--every", type=int, default=100, help="evaluate the checkpoints at multiples of this many "
@@ -72,16 +75,16 @@ def main(argv=None) -> None:
     parser.add_argument("--episode_length_s", type=float, default=None, help="episode length (default: the task's)")
     parser.add_argument("--seed", type=int, default=0, help="the seed every evaluation starts from")
     parser.add_argument("--out", default=None, help="write the rows (and the best) as JSON here")
-    parser.add_argument("overrides", nargs="*", help=cli.OVERRIDE_HELP)
-    args = cli.parse(parser, argv)
+    parser.add_argument("overrides", nargs="*", help=arguments.OVERRIDE_HELP)
+    args = arguments.parse(parser, argv)
     if args.every < 1:
-        cli.fail(f"--every must be >= 1, got {args.every}")
+        raise AgileError(f"--every must be >= 1, got {args.every}")
     run_dir = Path(args.run)
     if not run_dir.is_dir():
-        cli.fail(f"--run {args.run}: no such folder")
+        raise AgileError(f"--run {args.run}: no such folder")
     checkpoints = run_checkpoints(run_dir, args.every)
     if not checkpoints:
-        cli.fail(f"--run {args.run}: no model_<iteration>.pt in it")
+        raise AgileError(f"--run {args.run}: no model_<iteration>.pt in it")
 
     from agile.run.time_to_policy import evaluator
     from agile.tasks import registered_tasks
@@ -89,17 +92,18 @@ def main(argv=None) -> None:
     from agile.utils.config import ConfigError
 
     if args.task not in registered_tasks():
-        cli.fail(f"unknown task '{args.task}'. Registered tasks: {', '.join(registered_tasks())}")
+        raise AgileError(f"unknown task '{args.task}'. Registered tasks: {', '.join(registered_tasks())}")
     entry = task_entry(args.task)
     if not entry.criteria and not entry.minima:
-        cli.fail(f"{args.task} has no evaluation criteria in the catalogue (kind '{entry.kind}'): nothing to pick by")
-    device, fallback = cli.resolve_device(args.device)
+        raise AgileError(f"{args.task} has no evaluation criteria in the catalogue (kind '{entry.kind}'): nothing to "
+                         f"pick by")
+    device, fallback = task_setup.resolve_device(args.device)
     if fallback is not None:
         print(f"[agile] {fallback}: evaluating on the CPU")
     try:
         evaluate = evaluator(args.task, args.overrides, device, args.num_envs, args.episode_length_s, seed=args.seed)
     except ConfigError as err:
-        cli.fail(str(err))
+        raise AgileError(str(err))
     setting = {"num_envs": args.num_envs or entry.eval_settings["num_envs"],
                "episode_length_s": args.episode_length_s or entry.eval_settings["episode_length_s"]}
     # as eval_all judges: fewer envs, shorter episodes or the CPU rank the checkpoints, but cannot say one passes

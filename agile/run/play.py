@@ -28,13 +28,16 @@ import sys
 import threading
 import time
 
-from agile.run import common as cli
+from agile.run.arguments import command
+from agile.run import arguments, task_setup
+from agile.errors import AgileError
 
-from agile.run import multi_agent
-from agile.run.common import load_policy
+from agile.run.task_kinds import run_command
 from agile.run.policy import inference_cfg
 
-from agile.gui.viewer import LOCAL_HOST
+LOCAL_HOST = "127.0.0.1"
+"""`agile.gui.viewer.LOCAL_HOST`, named here so that --help does not import the viewer (and torch)."""
+
 
 
 def sinusoidal_actions(step: int, step_dt: float, num_envs: int, action_dim: int, device):
@@ -97,15 +100,16 @@ def show_fallen_states(env_cfg, task: str) -> None:
     resets = [term for term in vars(env_cfg.events).values()
               if isinstance(term, EventTerm) and term.func is reset_from_fallen_dataset]
     if not resets:
-        cli.fail(f"--validate_fallen_states: {task} has no reset event reset_from_fallen_dataset")
+        raise AgileError(f"--validate_fallen_states: {task} has no reset event reset_from_fallen_dataset")
     for term in resets:
         term.params["standing_ratio"] = 0.0
     env_cfg.episode_length_s = 1.0
 
 
+@command
 def main(argv=None) -> None:
-    parser = cli.new_parser(__doc__)
-    cli.add_common_args(parser)
+    parser = arguments.new_parser(__doc__)
+    arguments.add_common_args(parser)
     parser.add_argument("--checkpoint", default=None, help="RSL-RL checkpoint (model_<it>.pt) to run")
     parser.add_argument("--sinusoidal", action="store_true", help="sinusoidal test actions instead of a policy")
     parser.add_argument("--num_steps", type=int, default=None,
@@ -131,43 +135,41 @@ def main(argv=None) -> None:
     parser.add_argument("--validate_fallen_states", action="store_true",
                         help="stand-up tasks: show the fallen-state dataset: every env starts fallen, a new state "
                              "every second, zero actions (the joints hold where they lie)")
-    cli.add_checkpoint_args(parser)
-    args = cli.parse(parser, argv)
+    arguments.add_checkpoint_args(parser)
+    args = arguments.parse(parser, argv)
     if args.video_reference and not args.video:
-        cli.fail("--video_reference draws into the --video mp4: give --video PATH.mp4 too")
-    if multi_agent.is_multi_agent(args.task):
-        if args.video_reference:
-            cli.fail("--video_reference: a multi-agent task's commands have no reference pose")
-        multi_agent.play_main(args, args.num_steps or DEFAULT_HEADLESS_STEPS)
-        return
+        raise AgileError("--video_reference draws into the --video mp4: give --video PATH.mp4 too")
+    run_command("play", args.task, args)
+
+
+def play_single_agent(args) -> None:
+    """`agile play` for every kind but multi-agent (`agile.run.task_kinds`)."""
     import agile.tasks
 
-    try:
-        debug_task = agile.tasks.task_kind(args.task) == "debug"
-    except KeyError as err:
-        cli.fail(err.args[0])
+    debug_task = agile.tasks.task_kind(args.task) == "debug"
     viewer_on = (args.viewer or ("viser" if debug_task else "none")) == "viser"
     num_steps = args.num_steps if args.num_steps is not None else (None if viewer_on else DEFAULT_HEADLESS_STEPS)
 
-    checkpoint = args.checkpoint
+    checkpoint, overrides = args.checkpoint, args.overrides
     if args.validate_fallen_states and (checkpoint or args.sinusoidal):
-        cli.fail("--validate_fallen_states shows the dataset with zero actions: without --checkpoint or --sinusoidal")
+        raise AgileError("--validate_fallen_states shows the dataset with zero actions: without --checkpoint or "
+                         "--sinusoidal")
     if checkpoint is None and not args.sinusoidal and not args.validate_fallen_states:
         # a debug task plays the policy of the task it debugs where agile ships one, else its sliders drive it
-        checkpoint = cli.shipped_policy(args)
+        checkpoint, overrides = task_setup.shipped_policy(task=args.task, overrides=overrides)
     slider_actions = debug_task and viewer_on and checkpoint is None and not args.sinusoidal
-    contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint) if checkpoint and not args.sinusoidal \
+    contents = task_setup.read_checkpoint(str(checkpoint), args.trust_checkpoint) if checkpoint and not args.sinusoidal \
         else None
-    env_cfg, agent_cfg, device = cli.load_task(args)
+    env_cfg, agent_cfg, device = task_setup.load_task(**arguments.task_options(args, overrides=overrides))
     if contents is not None:
-        cli.warn_overrides_not_repeated(contents, {"env": env_cfg}, "play the task it was trained on")
+        task_setup.warn_overrides_not_repeated(contents, {"env": env_cfg}, "play the task it was trained on")
     import torch
     env_cfg = inference_cfg(env_cfg)
     if args.validate_fallen_states:
         show_fallen_states(env_cfg, args.task)
-    env = cli.make_env(args.task, with_visual_meshes(env_cfg) if viewer_on else env_cfg, device,
-                       use_cache=not args.no_cache)
-    policy = load_policy(contents, env, agent_cfg) if contents is not None else None
+    env = task_setup.make_env(task=args.task, env_cfg=with_visual_meshes(env_cfg) if viewer_on else env_cfg, device=device,
+                       collect_datasets_anew=args.no_cache)
+    policy = task_setup.load_policy(contents, env, agent_cfg) if contents is not None else None
 
     viewer = sliders = None
     if viewer_on:
@@ -183,12 +185,12 @@ def main(argv=None) -> None:
 
     recorder = None
     if args.usd:
-        from agile.run.recording import UsdRecorder
+        from agile.run.recorders import UsdRecorder
 
         recorder = UsdRecorder(args.usd, env, num_frames=num_steps or DEFAULT_HEADLESS_STEPS)
     video = None
     if args.video:
-        from agile.run.recording import VideoRecorder
+        from agile.run.recorders import VideoRecorder
 
         if args.video_reference:
             from agile.run.reference_view import reference_command
@@ -196,7 +198,7 @@ def main(argv=None) -> None:
             try:
                 reference_command(env)
             except ValueError as err:
-                cli.fail(f"--video_reference: {err}")
+                raise AgileError(f"--video_reference: {err}")
         video = VideoRecorder(args.video, env, *args.video_size, reference=args.video_reference)
     obs, _ = env.reset()
     episodes = falls = step = 0

@@ -16,7 +16,9 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from agile.run import common as cli
+from agile.run.arguments import command
+from agile.run import arguments
+from agile.errors import AgileError
 
 DEFAULT_TAGS = ["Train/mean_episode_length", "Train/mean_reward", "Episode_Reward/track_lin_vel_xy_exp",
                 "Loss/behavior", "Curriculum/terrain_levels"]
@@ -45,7 +47,7 @@ def event_files(path: str) -> list[str]:
     if os.path.isfile(path):
         return [path]
     if not os.path.isdir(path):
-        cli.fail(f"no such run folder or event file: {path}")
+        raise AgileError(f"no such run folder or event file: {path}")
     return sorted(str(p) for p in Path(path).glob(EVENTS_GLOB))
 
 
@@ -58,7 +60,7 @@ def curves_of(label: str | None, paths: list[str]) -> list[tuple[str, list[str]]
     groups = sorted({p.parent.name for path in paths if os.path.isdir(path)
                      for p in Path(path).glob(f"*/{EVENTS_GLOB}")})
     if not groups:
-        cli.fail(f"no tensorboard event files in {', '.join(paths)} (nor in its agent-group subfolders)")
+        raise AgileError(f"no tensorboard event files in {', '.join(paths)} (nor in its agent-group subfolders)")
     label = label or Path(paths[0]).name
     return [(f"{label}/{group}", [f for path in paths for f in event_files(os.path.join(path, group))
                                   if os.path.isdir(os.path.join(path, group))]) for group in groups]
@@ -82,15 +84,16 @@ def parse_runs(args) -> list[tuple[str, list[str]]]:
     for run in args.run or []:
         label, _, paths = run.partition("=")
         if not paths:
-            cli.fail(f"--run takes LABEL=path[,path...], got '{run}'")
+            raise AgileError(f"--run takes LABEL=path[,path...], got '{run}'")
         runs += curves_of(label, paths.split(","))
     if not runs:
-        cli.fail("give a run folder (or --run LABEL=path[,path...])")
+        raise AgileError("give a run folder (or --run LABEL=path[,path...])")
     return runs
 
 
+@command
 def main(argv=None) -> None:
-    parser = cli.new_parser(__doc__)
+    parser = arguments.new_parser(__doc__)
     parser.add_argument("runs", nargs="*", help="run folders or event files, one curve each (label: the name)")
     parser.add_argument("--run", action="append", default=None, help="LABEL=path[,path...]: a labelled run, "
                         "joined from a run and its resumptions")
@@ -99,12 +102,12 @@ def main(argv=None) -> None:
                         help=f"tensorboard scalar to plot, one panel each (default: those of {', '.join(DEFAULT_TAGS)} "
                              "that the first run logged)")
     parser.add_argument("--title", default="")
-    args = cli.parse(parser, argv)
+    args = arguments.parse(parser, argv)
     runs = parse_runs(args)
     try:
         import matplotlib
     except ImportError:
-        cli.fail("plotting needs matplotlib, an optional extra: pip install -e \".[plot]\"")
+        raise AgileError("plotting needs matplotlib, an optional extra: pip install -e \".[plot]\"")
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.ticker import MaxNLocator
@@ -113,7 +116,7 @@ def main(argv=None) -> None:
     first = scalars[runs[0][0]]
     tags = args.tag or [tag for tag in DEFAULT_TAGS if tag in first]
     if not tags:
-        cli.fail(f"{runs[0][0]} logged none of {DEFAULT_TAGS}; choose with --tag from: {sorted(first)}")
+        raise AgileError(f"{runs[0][0]} logged none of {DEFAULT_TAGS}; choose with --tag from: {sorted(first)}")
     fig, axes = plt.subplots(1, len(tags), figsize=(5 * len(tags), 4), squeeze=False)
     for ax, tag in zip(axes[0], tags):
         for label, run_scalars in scalars.items():
@@ -125,7 +128,7 @@ def main(argv=None) -> None:
         ax.xaxis.set_major_locator(MaxNLocator(5, integer=True))  # five-digit iterations stay apart
         ax.set_ylabel(AXIS_LABELS.get(tag, tag))
     if not any(ax.lines for ax in axes[0]):
-        cli.fail(f"no run logged {tags}; the first run's scalars: {sorted(first)}")
+        raise AgileError(f"no run logged {tags}; the first run's scalars: {sorted(first)}")
     axes[0][0].legend(fontsize=8)
     fig.suptitle(args.title)
     fig.tight_layout()

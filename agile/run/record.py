@@ -20,7 +20,9 @@ import math
 import os
 import time
 
-from agile.run import common as cli
+from agile.run.arguments import command
+from agile.run import arguments, task_setup
+from agile.errors import AgileError
 
 RECORD_GROUP = "record"
 LIGHT_CHANGE_STEPS = 60
@@ -159,9 +161,77 @@ def record(env, policy, writer, num_episodes: int, randomise_lights: bool = True
             "seconds": seconds, "frames_per_s": frames / seconds}
 
 
+def record_dataset(*, task: str, out: str, num_episodes: int, checkpoint: str | None = None,
+                   num_envs: int | None = None, device: str | None = None, seed: int | None = None,
+                   rnn: str | None = None, overrides=(), task_description: str | None = None, fixed_light: bool = False,
+                   fixed_colors: bool = False, encode_processes: int | None = None, trust_checkpoint: bool = False,
+                   collect_datasets_anew: bool = False) -> dict:
+    """Record `num_episodes` episodes of a recording task (its spec's kind "record") played by `checkpoint` (default:
+    the shipped policy) into `out`, a new folder, as a LeRobot dataset; each episode draws its light (unless
+    `fixed_light`) and its props' colours from the task's palettes (unless `fixed_colors`). The videos are encoded in
+    `encode_processes` worker processes (0: in this one; None: one per env, at most the CPU cores less two).
+    Returns what `record` counts (episodes, frames written, seconds, frames/s)."""
+    missing = [name for name in ("av", "pyarrow") if importlib.util.find_spec(name) is None]
+    if missing:
+        raise AgileError(f"agile record writes videos and parquet files with {' and '.join(missing)}: "
+                         "pip install 'agile[record]'")
+    if encode_processes is not None and encode_processes < 0:
+        raise AgileError(f"encode_processes {encode_processes}: give 0 (encode in this process) or more")
+    if os.path.exists(out):
+        raise AgileError(f"--out {out} exists: give a new folder (a dataset is never written over another)")
+    task_setup.check_writable(out, "out")
+
+    import agile.tasks
+    from agile.run.lerobot_dataset import LeRobotDatasetWriter
+    from agile.run.policy import inference_cfg
+    from agile.utils.config import load_entry_point
+
+    spec = agile.tasks.task_spec(task)
+    if spec.kind != "record":
+        recording = [t for t in agile.tasks.registered_tasks() if agile.tasks.task_kind(t) == "record"]
+        raise AgileError(f"{task} is not a recording task; recording tasks: {', '.join(recording)}")
+    checkpoint, overrides = task_setup.policy_to_run(task=task, checkpoint=checkpoint, overrides=overrides)
+    contents = task_setup.read_checkpoint(checkpoint, trust_checkpoint)
+    env_cfg, agent_cfg, device = task_setup.load_task(task=task, num_envs=num_envs, device=device, seed=seed,
+                                                      rnn=rnn, overrides=overrides)
+    env = task_setup.make_env(task=task, env_cfg=inference_cfg(env_cfg), device=device,
+                              collect_datasets_anew=collect_datasets_anew)
+    palettes = None if fixed_colors else spec.color_palettes
+    if palettes:  # registered as "module:attribute" entry points (registering imports no simulator code)
+        palettes = {name: load_entry_point(colors) if isinstance(colors, str) else colors
+                    for name, colors in palettes.items()}
+    try:
+        state, videos, action = recording_layout(env)
+        if palettes:
+            record_cameras(env)
+    except ValueError as err:
+        raise AgileError(str(err)) from err
+    policy = task_setup.load_policy(contents, env, agent_cfg)
+    if encode_processes is None:
+        encode_processes = max(0, min(env.num_envs, (os.cpu_count() or 1) - 2))
+    writer = LeRobotDatasetWriter(out, fps=round(1.0 / env.step_dt),
+                                  task_description=task_description or spec.task_description or task,
+                                  robot_type=spec.robot_type or "robot", state=state, action=action,
+                                  video_shapes=videos, streams=env.num_envs, encode_processes=encode_processes)
+    print(f"[agile] recording {num_episodes} episodes of {task} with {checkpoint} into {out} "
+          f"({env.num_envs} envs, {round(1.0 / env.step_dt)} fps, videos {', '.join(videos)}, encoded "
+          f"{f'in {encode_processes} processes' if encode_processes else 'in this process'})", flush=True)
+    try:
+        result = record(env, policy, writer, num_episodes, randomise_lights=not fixed_light,
+                        seed=env_cfg.seed if env_cfg.seed is not None else 0,
+                        progress=lambda line: print(line, flush=True), color_palettes=palettes)
+    finally:
+        env.close()
+    print(f"[agile] wrote {result['episodes']} episodes, {result['frames_written']} frames in "
+          f"{result['seconds']:.1f} s ({result['frames_per_s']:.1f} frames/s rendered and encoded over "
+          f"{env.num_envs} envs): {out}")
+    return result
+
+
+@command
 def main(argv=None) -> None:
-    parser = cli.new_parser(__doc__)
-    cli.add_common_args(parser)
+    parser = arguments.new_parser(__doc__)
+    arguments.add_common_args(parser)
     parser.add_argument("--checkpoint", default=None,
                         help="RSL-RL checkpoint of the task's policy (default: the shipped policy)")
     parser.add_argument("--num_episodes", type=int, required=True, help="episodes to write")
@@ -175,61 +245,14 @@ def main(argv=None) -> None:
     parser.add_argument("--encode_processes", type=int, default=None, metavar="N",
                         help="encode the videos in N worker processes (0: in this one; default: one per env, at "
                         "most the CPU cores less two)")
-    cli.add_checkpoint_args(parser)
-    args = cli.parse(parser, argv)
-    missing = [name for name in ("av", "pyarrow") if importlib.util.find_spec(name) is None]
-    if missing:
-        cli.fail(f"agile record writes videos and parquet files with {' and '.join(missing)}: "
-                 "pip install 'agile[record]'")
-    if args.encode_processes is not None and args.encode_processes < 0:
-        cli.fail(f"--encode_processes {args.encode_processes}: give 0 (encode in this process) or more")
-    if os.path.exists(args.out):
-        cli.fail(f"--out {args.out} exists: give a new folder (a dataset is never written over another)")
+    arguments.add_checkpoint_args(parser)
+    args = arguments.parse(parser, argv)
+    record_dataset(task=args.task, out=args.out, num_episodes=args.num_episodes, checkpoint=args.checkpoint,
+                   num_envs=args.num_envs, device=args.device, seed=args.seed, rnn=args.rnn, overrides=args.overrides,
+                   task_description=args.task_description, fixed_light=args.fixed_light,
+                   fixed_colors=args.fixed_colors, encode_processes=args.encode_processes,
+                   trust_checkpoint=args.trust_checkpoint, collect_datasets_anew=args.no_cache)
 
-    import agile.tasks
-    from agile.run.lerobot_dataset import LeRobotDatasetWriter
-    from agile.run.policy import inference_cfg
-    from agile.utils.config import load_entry_point
 
-    try:
-        spec = agile.tasks.task_spec(args.task)
-    except KeyError as err:
-        cli.fail(err.args[0])
-    if agile.tasks.task_kind(args.task) != "record":
-        recording = [t for t in agile.tasks.registered_tasks() if agile.tasks.task_kind(t) == "record"]
-        cli.fail(f"{args.task} is not a recording task; recording tasks: {', '.join(recording)}")
-    checkpoint = args.checkpoint or cli.shipped_policy(args)
-    if checkpoint is None:
-        cli.fail(f"no --checkpoint given and agile ships no policy for {args.task} (the policy of "
-                 f"{spec.kwargs.get('shipped_policy', args.task)})")
-    contents = cli.read_checkpoint(str(checkpoint), args.trust_checkpoint)
-    env_cfg, agent_cfg, device = cli.load_task(args)
-    env = cli.make_env(args.task, inference_cfg(env_cfg), device, use_cache=not args.no_cache)
-    palettes = None if args.fixed_colors else spec.kwargs.get("color_palettes")
-    if palettes:  # registered as "module:attribute" entry points (registering imports no simulator code)
-        palettes = {name: load_entry_point(colors) if isinstance(colors, str) else colors
-                    for name, colors in palettes.items()}
-    try:
-        state, videos, action = recording_layout(env)
-        if palettes:
-            record_cameras(env)
-    except ValueError as err:
-        cli.fail(str(err))
-    policy = cli.load_policy(contents, env, agent_cfg)
-    description = args.task_description or spec.kwargs.get("task_description", args.task)
-    encode_processes = args.encode_processes
-    if encode_processes is None:
-        encode_processes = max(0, min(env.num_envs, (os.cpu_count() or 1) - 2))
-    writer = LeRobotDatasetWriter(args.out, fps=round(1.0 / env.step_dt), task_description=description,
-                                  robot_type=spec.kwargs.get("robot_type", "robot"), state=state, action=action,
-                                  video_shapes=videos, streams=env.num_envs, encode_processes=encode_processes)
-    print(f"[agile] recording {args.num_episodes} episodes of {args.task} with {checkpoint} into {args.out} "
-          f"({env.num_envs} envs, {round(1.0 / env.step_dt)} fps, videos {', '.join(videos)}, encoded "
-          f"{f'in {encode_processes} processes' if encode_processes else 'in this process'})", flush=True)
-    result = record(env, policy, writer, args.num_episodes, randomise_lights=not args.fixed_light,
-                    seed=env_cfg.seed if env_cfg.seed is not None else 0,
-                    progress=lambda line: print(line, flush=True), color_palettes=palettes)
-    print(f"[agile] wrote {result['episodes']} episodes, {result['frames_written']} frames in "
-          f"{result['seconds']:.1f} s ({result['frames_per_s']:.1f} frames/s rendered and encoded over "
-          f"{env.num_envs} envs): {args.out}")
-    env.close()
+if __name__ == "__main__":
+    main()

@@ -23,7 +23,9 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from agile.run import common as cli
+from agile.run.arguments import command
+from agile.run import arguments
+from agile.errors import AgileError
 from agile.run.mujoco_commands import make_commands
 from agile.run.mujoco_policy import (BundlePolicy, DescriptorPolicy, OnnxPolicy, TorchScriptPolicy,  # noqa: F401
                                      bundle_descriptor, read_bundle, yaml_load)
@@ -87,7 +89,7 @@ def default_mjcf(descriptor: dict) -> str:
     robots = {"t1.xml": "booster_t1/t1.xml", "g1_mjx.xml": "unitree_g1/g1_mjx.xml", "g1.xml": "unitree_g1/g1.xml"}
     name = descriptor["robot_model_file"]
     if name not in robots:
-        cli.fail(f"pass --mjcf for robot file '{name}'")
+        raise AgileError(f"pass --mjcf for robot file '{name}'")
     return asset_file(robots[name])
 
 
@@ -98,7 +100,7 @@ class MujocoVideo:
     def __init__(self, path: str, mjcf: str, fps: int):
         import newton
 
-        from agile.run.recording import CameraVideo
+        from agile.run.recorders import CameraVideo
 
         builder = newton.ModelBuilder()
         builder.add_mjcf(mjcf, floating=True, parse_visuals=True)
@@ -110,8 +112,8 @@ class MujocoVideo:
 
     def __call__(self, mj_model, data) -> None:
         if data.qpos.shape[0] != self.model.joint_coord_count:
-            cli.fail(f"MuJoCo has {data.qpos.shape[0]} position coordinates, Newton's import of the same MJCF "
-                     f"{self.model.joint_coord_count}: cannot copy the pose for the video")
+            raise AgileError(f"MuJoCo has {data.qpos.shape[0]} position coordinates, Newton's import of the same MJCF "
+                             f"{self.model.joint_coord_count}: cannot copy the pose for the video")
         q = data.qpos.astype(np.float32)
         q[3:7] = q[[4, 5, 6, 3]]  # free-joint quaternion: MuJoCo w, x, y, z -> Newton x, y, z, w
         self.state.joint_q.assign(q)
@@ -122,8 +124,9 @@ class MujocoVideo:
         self.video.close()
 
 
+@command
 def main(argv=None) -> None:
-    parser = cli.new_parser(__doc__)
+    parser = arguments.new_parser(__doc__)
     parser.add_argument("--io", default=None, help="io_descriptor.yaml written by agile export (with --policy)")
     parser.add_argument("--policy", default=None, help="policy.pt (TorchScript) or policy.onnx (with --io)")
     parser.add_argument("--bundle", default=None, metavar="TASK.yaml",
@@ -142,11 +145,11 @@ def main(argv=None) -> None:
     parser.add_argument("--out", default=None, help="write the metrics as JSON here")
     parser.add_argument("--video", default=None, metavar="PATH.mp4",
                         help="render the rollout headless into an mp4 (camera following the robot)")
-    args = cli.parse(parser, argv)
+    args = arguments.parse(parser, argv)
     by_bundle = args.bundle is not None and args.io is None and args.policy is None
     by_descriptor = args.bundle is None and args.io is not None and args.policy is not None
     if not (by_bundle or by_descriptor):
-        cli.fail("give either --bundle, or --io and --policy")
+        raise AgileError("give either --bundle, or --io and --policy")
     if args.bundle:
         descriptor = bundle_descriptor(read_bundle(args.bundle))
 
@@ -155,12 +158,12 @@ def main(argv=None) -> None:
     else:
         descriptor = yaml_load(args.io)
         if descriptor.get("version") != IO_DESCRIPTOR_VERSION:
-            cli.fail(f"{args.io} is an IO descriptor of version {descriptor.get('version')}, this script reads "
-                     f"version {IO_DESCRIPTOR_VERSION}: export the policy again with agile export")
+            raise AgileError(f"{args.io} is an IO descriptor of version {descriptor.get('version')}, this script reads "
+                             f"version {IO_DESCRIPTOR_VERSION}: export the policy again with agile export")
         not_joint_targets = [f"{a['name']} ({a['type']})" for a in descriptor["actions"] if "offset" not in a]
         if not_joint_targets:
-            cli.fail(f"{args.io}: sim2mujoco runs policies whose actions are joint targets (action · scale + offset); "
-                     f"these action terms are not: {not_joint_targets}")
+            raise AgileError(f"{args.io}: sim2mujoco runs policies whose actions are joint targets (action · scale + "
+                             f"offset); these action terms are not: {not_joint_targets}")
 
         def make_policy(robot):
             return DescriptorPolicy(descriptor, robot, args.policy)
@@ -168,7 +171,7 @@ def main(argv=None) -> None:
         make_commands(next(iter(descriptor["commands"].values())), np.random.default_rng(args.seed),
                       descriptor["control_dt_s"], args.command, args.height_ramp)
     except ValueError as err:
-        cli.fail(str(err))
+        raise AgileError(str(err))
     mjcf = args.mjcf or default_mjcf(descriptor)
     video = MujocoVideo(args.video, mjcf, round(1.0 / descriptor["control_dt_s"])) if args.video else None
     try:

@@ -30,7 +30,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from agile.run import common as cli
+from agile.run.arguments import command
+from agile.run import arguments, task_setup
+from agile.errors import AgileError
 
 FIRST_ITERATION_MARK = "Learning iteration"
 """What rsl-rl's log prints for every iteration (the training runs with --progress log)."""
@@ -72,7 +74,7 @@ def evaluator(task: str, overrides: list[str], device: str, num_envs: int | None
 
     import agile.tasks
     from agile.rl.checkpoints import load_checkpoint
-    from agile.run.evaluation import evaluate
+    from agile.run.rollout_metrics import evaluate
     from agile.run.eval_all import disable_interval_events
     from agile.run.policy import inference_cfg, load_policy
     from agile.tasks.catalogue import task_entry
@@ -85,7 +87,7 @@ def evaluator(task: str, overrides: list[str], device: str, num_envs: int | None
     env_cfg.episode_length_s = episode_length_s or settings["episode_length_s"]
     env_cfg = inference_cfg(env_cfg)
     disable_interval_events(env_cfg)
-    env = cli.make_env(task, env_cfg, device)
+    env = task_setup.make_env(task=task, env_cfg=env_cfg, device=device)
 
     def run(path: Path) -> dict:
         policy = load_policy(load_checkpoint(str(path)), env, agent_cfg)
@@ -109,7 +111,7 @@ def criteria_of(args) -> tuple[dict, dict]:
         try:
             criteria[name] = float(value)
         except ValueError:
-            cli.fail(f"--criterion takes NAME=MAXIMUM, e.g. fall_rate=0.05; got '{spec}'")
+            raise AgileError(f"--criterion takes NAME=MAXIMUM, e.g. fall_rate=0.05; got '{spec}'")
     return criteria, {}
 
 
@@ -251,8 +253,9 @@ def plot(results: list[dict], path: str, title: str) -> bool:
     return True
 
 
+@command
 def main(argv=None) -> int:
-    parser = cli.new_parser(__doc__)
+    parser = arguments.new_parser(__doc__)
     parser.add_argument("--task", required=True, help="registered task ID, e.g. Velocity-G1-History-v0")
     parser.add_argument("--budget_s", type=float, required=True, help="wall-clock budget of the whole run [s]")
     parser.add_argument("--gpus", type=int, default=1, help="GPUs of this host to train on (torchrun when > 1)")
@@ -278,15 +281,15 @@ def main(argv=None) -> int:
                         help="a criterion instead of the task's (repeat for several), e.g. fall_rate=0.05")
     parser.add_argument("--out", required=True, help="write <out>.json and <out>.png (the curve)")
     parser.add_argument("--verbose", action="store_true", help="show Warp's kernel loads and library warnings")
-    parser.add_argument("overrides", nargs="*", help=cli.OVERRIDE_HELP)
-    cli.add_recipe_arg(parser)
-    args = cli.parse(parser, argv)
+    parser.add_argument("overrides", nargs="*", help=arguments.OVERRIDE_HELP)
+    arguments.add_recipe_arg(parser)
+    args = arguments.parse(parser, argv)
     if args.gpus < 1 or args.save_interval < 1 or not args.budget_s > 0:
-        cli.fail("--gpus and --save_interval must be at least 1 and --budget_s positive")
-    device, _ = cli.resolve_device(args.device if args.gpus == 1 or args.device == "cpu" else "cuda:0")
+        raise AgileError("--gpus and --save_interval must be at least 1 and --budget_s positive")
+    device, _ = task_setup.resolve_device(args.device if args.gpus == 1 or args.device == "cpu" else "cuda:0")
     args.device = device
     if args.eval_device is not None:
-        args.eval_device, _ = cli.resolve_device(args.eval_device)
+        args.eval_device, _ = task_setup.resolve_device(args.eval_device)
     criteria, minima = criteria_of(args)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     from agile.run.eval_all import source_commit

@@ -16,14 +16,25 @@ Checkpoints, tensorboard logs and the resolved configs go to logs/rsl_rl/<experi
 
 from __future__ import annotations
 
-import math
+import dataclasses
 import os
 import sys
 from functools import partial
+from pathlib import Path
 
-from agile.run import common as cli
+from agile.run.arguments import command
+from agile.run import arguments, task_setup
+from agile.errors import AgileError
 
-from agile.run import multi_agent
+from agile.run.task_kinds import run_command
+from agile.run.training_start import check_rank_weights, distributed_rank, restore_start, starting_point
+
+DEFAULT_LOG_ROOT = os.path.join("logs", "rsl_rl")
+PROGRESS_MODES = ("auto", "bar", "log")
+"""`agile.rl.progress.PROGRESS_MODES`, named here so that --help does not import the simulator."""
+LOGGERS = ("tensorboard", "wandb", "neptune")
+MANY_CPU_ENVS = 256
+"""Above this env count a CPU training is told that it is slow and how to make it fast."""
 
 
 def set_learning_rate(algorithm, learning_rate: float) -> None:
@@ -54,14 +65,14 @@ def warm_up_critic(runner, iterations: int, learning_rate: float) -> None:
     set_learning_rate(runner.alg, ppo_learning_rate)
 
 
-def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iterations: int,
+def learn_with_clips(runner, options, env_cfg, device: str, log_dir: str, iterations: int,
                      random_episode_starts: bool = True) -> None:
     """Train in chunks of --video_interval iterations, recording a clip of the current policy after each."""
     import copy
 
     import torch
     from agile.run.policy import inference_cfg
-    from agile.run.recording import VideoRecorder
+    from agile.run.recorders import VideoRecorder
 
     from agile.rl import flatten_groups
 
@@ -69,11 +80,12 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
     if record:
         video_cfg = inference_cfg(copy.deepcopy(env_cfg))
         video_cfg.num_envs = 1
-        video_env = cli.make_env(args.task, video_cfg, device, use_cache=not args.no_cache)
+        video_env = task_setup.make_env(task=options.task, env_cfg=video_cfg, device=device,
+                                        collect_datasets_anew=options.collect_datasets_anew)
         os.makedirs(os.path.join(log_dir, "videos"), exist_ok=True)
     done = 0
     while done < iterations:
-        chunk = min(args.video_interval, iterations - done)
+        chunk = min(options.video_interval, iterations - done)
         runner.learn(num_learning_iterations=chunk, init_at_random_ep_len=random_episode_starts and done == 0)
         # RSL-RL leaves the counter on the last iteration done; the next chunk starts one later
         runner.current_learning_iteration += 1
@@ -88,7 +100,7 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
         recorder = VideoRecorder(path, video_env)
         obs, _ = video_env.reset()
         with torch.inference_mode():
-            for _ in range(args.video_length):
+            for _ in range(options.video_length):
                 obs, _, terminated, truncated, _ = video_env.step(policy(flatten_groups(obs)))
                 policy.reset(terminated | truncated)
                 recorder.record(video_env)
@@ -99,125 +111,214 @@ def learn_with_clips(runner, args, env_cfg, device: str, log_dir: str, iteration
         video_env.close()
 
 
-def distributed_rank(args):
-    """This process's rank when torchrun started it (with --distributed), else None; sets args.device to its own."""
-    from agile.rl.distributed import make_current, rank_device, rank_from_env
-
-    rank = rank_from_env()
-    if rank is None:
-        if args.distributed:
-            cli.fail("--distributed: start the processes with torchrun (WORLD_SIZE is unset or 1), e.g. "
-                     "torchrun --standalone --nproc_per_node=2 scripts/train.py --task ... --distributed")
-        return None
-    if not args.distributed:
-        cli.fail(f"WORLD_SIZE={rank.world_size} (torchrun) without --distributed: add --distributed to train "
-                 f"data-parallel")
-    try:
-        args.device = rank_device(rank, args.device)
-    except ValueError as err:
-        cli.fail(str(err))
-    make_current(args.device)
-    return rank
-
-
-def check_rank_weights(runner, rank) -> None:
-    """Every rank prints the digest of its weights; all must agree (rsl-rl broadcasts rank 0's at the start and
-    all-reduces every gradient, so a difference means the ranks fell out of step)."""
-    import torch
-
-    from agile.rl.algorithms.captured_update import CapturedUpdate
-    from agile.rl.distributed import gather_digests, weights_digest
-
-    digest = weights_digest(runner.alg.save())
-    print(f"[agile] rank {rank.rank}: weights sha256 {digest}", flush=True)
-    digests = gather_digests(digest)
-    if isinstance(runner.alg, CapturedUpdate):
-        runner.alg.release_graph()  # a live graph with NCCL kernels in it makes the destroy below hang
-    torch.distributed.destroy_process_group()
-    if len(set(digests)) != 1:
-        cli.fail(f"the {rank.world_size} ranks ended with different weights (sha256 by rank: {digests})")
-    if rank.is_main:
-        print(f"[agile] all {rank.world_size} ranks hold the same weights", flush=True)
+@dataclasses.dataclass(frozen=True)
+class TrainOptions:
+    """Everything a training run is started with (`train`'s keyword arguments; see them for each field)."""
+    task: str
+    num_envs: int | None = None
+    device: str | None = None
+    seed: int | None = None
+    rnn: str | None = None
+    overrides: tuple = ()
+    max_iterations: int | None = None
+    resume: bool = False
+    checkpoint: str | None = None
+    init_policy: tuple = ()
+    init_action_std: float | None = None
+    logger: str | None = None
+    run_name: str | None = None
+    log_root: str = DEFAULT_LOG_ROOT
+    video: bool = False
+    video_interval: int = 500
+    video_length: int = 200
+    inject_nan_actions: tuple | None = None
+    progress: str = "auto"
+    full_log_every: int = 100
+    teacher: str | None = None
+    distributed: bool = False
+    trust_checkpoint: bool = False
+    collect_datasets_anew: bool = False
 
 
-def as_policy_checkpoint(checkpoint: dict, path: str, state_key: str) -> dict:
-    """The --init_policy checkpoint (contents of `path`) with its policy under `state_key`, where the run's algorithm
-    loads it (`policy_state_key`). PPO ("actor_state_dict"): a PPO checkpoint as it is, a distilled student's
-    "student_state_dict" as the actor (fine-tuning by PPO). Distillation ("student_state_dict"): a distilled
-    student's checkpoint or shipped file (its distillation goes on)."""
-    if state_key in checkpoint:
-        return checkpoint
-    if state_key == "student_state_dict":
-        cli.fail(f"--init_policy {path}: a distilled task's student starts from a distilled student (its "
-                 f"student_state_dict); the file holds {sorted(checkpoint)}")
-    if "student_state_dict" not in checkpoint:
-        cli.fail(f"--init_policy {path}: no actor_state_dict or student_state_dict in it (it holds "
-                 f"{sorted(checkpoint)})")
-    return {state_key: checkpoint["student_state_dict"], "iter": checkpoint.get("iter", 0),
-            "infos": checkpoint.get("infos")}
+@dataclasses.dataclass(frozen=True)
+class TrainResult:
+    """What a training run leaves: its folder (None on a distributed run's other ranks), the last checkpoint and the
+    exported policy files ({kind: path}; a multi-agent run: {"groups": the folder of a subfolder per group})."""
+    log_dir: str | None
+    checkpoint: str | None
+    exported: dict
 
 
-def initial_policy_checkpoint(checkpoint: dict, path: str, state_key: str, log_dir: str,
-                              action_std: float | None) -> dict:
-    """The --init_policy checkpoint (`as_policy_checkpoint`'s) copied into the run's folder as init_policy.pt (where
-    the run started stays with it), with the policy's action noise set to `action_std` when given."""
-    import torch
+def train(*, task: str, num_envs: int | None = None, device: str | None = None, seed: int | None = None,
+          rnn: str | None = None, overrides=(), max_iterations: int | None = None, resume: bool = False,
+          checkpoint: str | None = None, init_policy=(), init_action_std: float | None = None,
+          logger: str | None = None, run_name: str | None = None, log_root: str = DEFAULT_LOG_ROOT,
+          video: bool = False, video_interval: int = 500, video_length: int = 200,
+          inject_nan_actions: tuple | None = None, progress: str = "auto", full_log_every: int = 100,
+          teacher: str | None = None, distributed: bool = False, trust_checkpoint: bool = False,
+          collect_datasets_anew: bool = False) -> TrainResult:
+    """Train `task` with RSL-RL (PPO, or distillation for a distilled task) and export the policy at the end.
 
-    if action_std is not None:
-        policy = checkpoint[state_key]
-        if "distribution.std_param" in policy:
-            policy["distribution.std_param"] = torch.full_like(policy["distribution.std_param"], action_std)
-        elif "distribution.log_std_param" in policy:
-            policy["distribution.log_std_param"] = torch.full_like(policy["distribution.log_std_param"],
-                                                                   math.log(action_std))
-        else:
-            cli.fail(f"--init_action_std: the policy in {path} has no state-independent std to reset")
-        print(f"[agile] action noise reset to std {action_std}")
+    The env and agent configs are the task's with `overrides` ("env.<path>=<value>", "agent.<path>=<value>"), `seed`,
+    `rnn` ("lstm" | "gru") and `max_iterations` applied; `num_envs` None: the task's on a GPU, 4 on a CPU. A run starts
+    afresh, from `init_policy` (a checkpoint's actor weights; a multi-agent task: "GROUP=PATH" each), or continues
+    (`resume`: the newest checkpoint of the experiment under `log_root`, or `checkpoint`). Checkpoints, logs and the
+    resolved configs go to <log_root>/<experiment>/<time>_<run_name>/. `progress`: "bar" | "log" (rsl-rl's block every
+    iteration) | "auto" (the bar on a terminal). Raises AgileError for what it refuses (the field and its valid values
+    named), before anything is built; Ctrl-C saves a checkpoint of where the run was before it ends the run."""
+    task_setup.check_task(task)
+    options = TrainOptions(
+        task=task, num_envs=num_envs, device=device, seed=seed, rnn=rnn, overrides=tuple(overrides),
+        max_iterations=max_iterations, resume=resume, checkpoint=checkpoint,
+        init_policy=(init_policy,) if isinstance(init_policy, str) else tuple(init_policy),
+        init_action_std=init_action_std, logger=logger, run_name=run_name, log_root=log_root, video=video,
+        video_interval=video_interval, video_length=video_length, inject_nan_actions=inject_nan_actions,
+        progress=progress, full_log_every=full_log_every, teacher=teacher, distributed=distributed,
+        trust_checkpoint=trust_checkpoint, collect_datasets_anew=collect_datasets_anew)
+    check_options(options)
+    rank, rank_device = distributed_rank(options)
+    return run_command("train", task, dataclasses.replace(options, device=rank_device), rank)
+
+
+def run_configs(options: TrainOptions, rank=None) -> task_setup.TaskConfigs:
+    """The run's env and agent configs and device (`task_setup.load_task`), with the options that set agent config
+    fields applied and, on a distributed run, this rank's seed (the seed + the rank)."""
+    env_cfg, agent_cfg, device = task_setup.load_task(task=options.task, num_envs=options.num_envs,
+                                                      device=options.device, seed=options.seed, rnn=options.rnn,
+                                                      overrides=options.overrides)
+    if rank is not None:
+        env_cfg.seed += rank.rank
+        agent_cfg.seed += rank.rank
+        print(f"[agile] rank {rank.rank} of {rank.world_size} on {device}, seed {env_cfg.seed}", flush=True)
+    for name in ("max_iterations", "logger", "run_name"):
+        if getattr(options, name) is not None:
+            setattr(agent_cfg, name, getattr(options, name))
+    return task_setup.TaskConfigs(env_cfg, agent_cfg, device)
+
+
+def check_options(options: TrainOptions) -> None:
+    """Refuse, before anything is built, options that cannot go together or hold no valid value."""
+    if options.progress not in PROGRESS_MODES:
+        raise AgileError(f"progress must be one of {', '.join(PROGRESS_MODES)}, got {options.progress!r}")
+    if options.logger not in (None, *LOGGERS):
+        raise AgileError(f"logger must be one of {', '.join(LOGGERS)} (or None: the task's), got {options.logger!r}")
+    if options.max_iterations is not None and options.max_iterations < 1:
+        raise AgileError(f"max_iterations must be at least 1, got {options.max_iterations}")
+    task_setup.check_writable(options.log_root, "log_root")
+    if options.inject_nan_actions is not None:
+        share, every = options.inject_nan_actions
+        if not (0.0 < share <= 1.0 and every >= 1 and every == int(every)):
+            raise AgileError(f"inject_nan_actions (SHARE, EVERY): SHARE within (0, 1], EVERY a whole number >= 1; got "
+                             f"{share:g} {every:g}")
+
+
+def build_runner(options: TrainOptions, env, agent_cfg, log_dir: str | None):
+    """The training runner over `env` (NaN actions injected where asked; on a CPU the first env step is timed)."""
+    from agile.rl.runner import training_runner
+    from agile.rl.progress import show_progress
+    from agile.rl.rsl_rl_adapter import set_git_status_repos
+
+    wrap = None
+    if options.inject_nan_actions is not None:
+        from agile.rl.fault_injection import NanActionVecEnv
+
+        share, every = options.inject_nan_actions
+        wrap = partial(NanActionVecEnv, share=share, every_iterations=int(every),
+                       steps_per_iteration=agent_cfg.num_steps_per_env)
+    elif str(env.device) == "cpu":
+        from agile.run.first_step_timing import FirstStepTimingVecEnv
+
+        wrap = partial(FirstStepTimingVecEnv, steps_per_iteration=agent_cfg.num_steps_per_env)
+    with task_setup.quiet_stdout():
+        runner = training_runner(env, agent_cfg, log_dir, wrap, overrides=list(options.overrides))
+    print(f"[agile] algorithm: {type(runner.alg).__name__}")  # its extensions in the name
+    set_git_status_repos(runner, task_setup.git_repos())
     if log_dir is not None:
-        torch.save(checkpoint, os.path.join(log_dir, "init_policy.pt"))
-    return checkpoint
+        show_progress(runner, options.progress, options.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
+    return runner
 
 
-def shipped_init_policy(task: str, agent_cfg) -> str | None:
-    """A fine-tuning task's default --init_policy: the shipped policy of its `init_policy_task` (None for the
-    other tasks)."""
-    import agile.tasks
+def learn(runner, env_cfg, agent_cfg, device: str, options: TrainOptions, log_dir: str | None, start: dict) -> None:
+    """The run's iterations: a critic warm-up where the policy comes from elsewhere (an initial policy, a checkpoint
+    trained without reward normalisation), then PPO (in chunks with a clip after each, where asked)."""
+    from agile.rl.algorithms.reward_normalization import starts_normalizing
 
-    source_task = getattr(agent_cfg, "init_policy_task", None)
-    if not source_task:
+    iterations, warmup = agent_cfg.max_iterations, 0
+    rescaled = starts_normalizing(agent_cfg, start["resume_contents"])
+    if rescaled:
+        print("[agile] the checkpoint was trained without reward normalisation: its statistics start afresh, and the "
+              "critic learned returns of another scale (critic_warmup_iterations applies)")
+    if start["init_policy"] or rescaled:
+        warmup = min(getattr(agent_cfg, "critic_warmup_iterations", 0), iterations)
+    if warmup > 0:
+        warm_up_critic(runner, warmup, agent_cfg.critic_warmup_learning_rate)
+        iterations -= warmup
+    if options.video:
+        learn_with_clips(runner, options, env_cfg, device, log_dir, iterations, random_episode_starts=warmup == 0)
+    elif iterations > 0:
+        runner.learn(num_learning_iterations=iterations, init_at_random_ep_len=warmup == 0)
+
+
+def warn_many_envs_on_cpu(num_envs: int, device: str) -> None:
+    """Before a CPU build of many envs: it is slow, the first env step will say how slow, and fewer envs are fast."""
+    if device == "cpu" and num_envs > MANY_CPU_ENVS:
+        print(f"[agile] {num_envs} envs on a CPU: the build and every iteration grow with the env count (the first env "
+              f"step says how long an iteration takes here); a GPU trains thousands of envs, a CPU run is quicker with "
+              f"--num_envs 64 or fewer", flush=True)
+
+
+def save_interrupted(runner, log_dir: str | None) -> str | None:
+    """After Ctrl-C: a checkpoint of the weights as the interruption found them (model_<iteration>.pt); None where
+    the run writes none (a distributed run's other ranks)."""
+    if log_dir is None:
         return None
-    path = agile.tasks.pretrained_policy(source_task)
-    if path is None:
-        cli.fail(f"{task} fine-tunes the policy of {source_task}, and agile ships none: train {source_task} first "
-                 f"and give --init_policy PATH (its model_<it>.pt)")
-    print(f"[agile] {task} fine-tunes {source_task}: the actor starts from its shipped policy {path}")
-    return str(path)
+    path = os.path.join(log_dir, f"model_{runner.current_learning_iteration}.pt")
+    runner.save(path)
+    return path
 
 
-def distillation_teacher(args, agent_cfg, resuming: bool) -> str | None:
-    """The teacher file of a distillation run (None for PPO, and when resuming: the checkpoint holds it)."""
-    import agile.tasks
-    from agile.rl import is_distillation
+def train_single_agent(options: TrainOptions, rank) -> TrainResult:
+    """`train` for every kind but multi-agent (`agile.run.task_kinds`)."""
+    env_cfg, agent_cfg, device = run_configs(options, rank)
+    start = starting_point(options, agent_cfg)
+    if start["resume_contents"] is not None:
+        task_setup.warn_overrides_not_repeated(start["resume_contents"], {"env": env_cfg, "agent": agent_cfg},
+                                               "continue the training it was in")
+    warn_many_envs_on_cpu(env_cfg.num_envs, device)
+    env = task_setup.make_env(task=options.task, env_cfg=env_cfg, device=device,
+                              collect_datasets_anew=options.collect_datasets_anew)
+    print(f"[agile] {options.task}: {task_setup.plural(env.num_envs, 'env')} on {device}, "
+          f"obs {env.observation_manager.group_dims}, actions {env.action_manager.total_action_dim}")
+    log_dir = None  # distributed: rank 0 writes the logs, checkpoints and exports
+    if rank is None or rank.is_main:
+        log_dir = task_setup.new_log_dir(options.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
+        task_setup.dump_configs(log_dir, env_cfg, agent_cfg)
+    runner = build_runner(options, env, agent_cfg, log_dir)
+    restore_start(runner, env, agent_cfg, start, options, log_dir)
+    try:
+        learn(runner, env_cfg, agent_cfg, device, options, log_dir, start)
+    except KeyboardInterrupt:
+        saved = save_interrupted(runner, log_dir)
+        print(f"\n[agile] training interrupted at iteration {runner.current_learning_iteration}"
+              + (f": its weights saved in {saved} (--checkpoint to continue from it)" if saved else ""), flush=True)
+        raise
+    if rank is not None:
+        check_rank_weights(runner, rank)
+    exported = {}
+    if log_dir is not None:
+        from agile.run.export import export
 
-    if not is_distillation(agent_cfg):
-        if args.teacher:
-            cli.fail(f"--teacher: {args.task} is trained by PPO, not distilled from a teacher")
-        return None
-    if resuming:
-        return None
-    path = args.teacher or agile.tasks.pretrained_policy(agent_cfg.teacher_task)
-    if path is None:
-        cli.fail(f"{args.task} distils the policy of {agent_cfg.teacher_task}, and agile ships none: train it "
-                 f"first and give --teacher PATH (its model_<it>.pt or exported/policy.pt)")
-    if not os.path.isfile(path):
-        cli.fail(f"--teacher file not found: {path}")
-    return str(path)
+        exported = export(options.task, env, agent_cfg, runner, os.path.join(log_dir, "exported"))
+        print(f"[agile] logs and checkpoints in {log_dir}; exported policy in {os.path.dirname(exported['jit'])}")
+    env.close()
+    checkpoints = sorted(Path(log_dir).glob("model_*.pt"), key=lambda p: int(p.stem.split("_")[1])) if log_dir else []
+    return TrainResult(log_dir=log_dir, checkpoint=str(checkpoints[-1]) if checkpoints else None, exported=exported)
 
 
-def main(argv=None) -> None:
-    parser = cli.new_parser(__doc__)
-    cli.add_common_args(parser)
-    cli.add_recipe_arg(parser)
+def build_parser():
+    parser = arguments.new_parser(__doc__)
+    arguments.add_common_args(parser)
+    arguments.add_recipe_arg(parser)
     parser.add_argument("--max_iterations", type=int, default=None,
                         help="PPO iterations to run (default: the task's); with --resume, iterations after the "
                              "checkpoint's")
@@ -231,10 +332,10 @@ def main(argv=None) -> None:
     parser.add_argument("--init_action_std", type=float, default=None, metavar="STD",
                         help="with --init_policy: reset the actor's action noise to STD (in action units), e.g. to "
                         "explore again when fine-tuning a converged policy on a harder task")
-    parser.add_argument("--logger", choices=["tensorboard", "wandb", "neptune"], default=None,
+    parser.add_argument("--logger", choices=LOGGERS, default=None,
                         help="where rsl-rl logs the training (default: the task's agent config, tensorboard)")
     parser.add_argument("--run_name", default=None, help="suffix of the log folder")
-    parser.add_argument("--log_root", default=os.path.join("logs", "rsl_rl"),
+    parser.add_argument("--log_root", default=DEFAULT_LOG_ROOT,
                         help="folder of the runs, <log_root>/<experiment>/<time>_<run name>/")
     parser.add_argument("--video", action="store_true", help="record a clip of the policy every --video_interval "
                         "iterations into <log dir>/videos (a separate 1-env world, rendered headless)")
@@ -243,7 +344,7 @@ def main(argv=None) -> None:
     parser.add_argument("--inject_nan_actions", type=float, nargs=2, default=None, metavar=("SHARE", "EVERY"),
                         help="reliability runs: NaN actions for a SHARE of the envs (e.g. 0.01) at the start of every "
                         "EVERY-th iteration; the env ends and counts them (Episode_Termination/invalid_action)")
-    parser.add_argument("--progress", choices=["auto", "bar", "log"], default="auto",
+    parser.add_argument("--progress", choices=PROGRESS_MODES, default="auto",
                         help="bar: one line with the ETA, mean reward and episode length, rsl-rl's full block every "
                         "--full_log_every iterations; log: the full block every iteration; auto (default): bar on a "
                         "terminal, log otherwise (log files)")
@@ -255,137 +356,20 @@ def main(argv=None) -> None:
     parser.add_argument("--distributed", action="store_true",
                         help="data-parallel over the processes torchrun starts (one per GPU; --device cpu: gloo on "
                         "CPU processes): each rank its own --num_envs envs and seed + rank, logs on rank 0")
-    cli.add_checkpoint_args(parser)
-    args = cli.parse(parser, argv)
-    rank = distributed_rank(args)
+    arguments.add_checkpoint_args(parser)
+    return parser
 
-    multi_agent_task = multi_agent.is_multi_agent(args.task)
-    if multi_agent_task:
-        multi_agent.check_train_args(args)
-        if rank is not None:
-            cli.fail("--distributed trains single-agent tasks; a multi-agent task trains on one device")
-    env_cfg, agent_cfg, device = cli.load_task(args)
-    if rank is not None:
-        env_cfg.seed += rank.rank
-        agent_cfg.seed += rank.rank
-        print(f"[agile] rank {rank.rank} of {rank.world_size} on {device}, seed {env_cfg.seed}", flush=True)
-    if args.max_iterations is not None:
-        agent_cfg.max_iterations = args.max_iterations
-    if args.logger is not None:
-        agent_cfg.logger = args.logger
-    if args.run_name is not None:
-        agent_cfg.run_name = args.run_name
-    if multi_agent_task:
-        multi_agent.train(args, env_cfg, agent_cfg, device)
-        return
-    if args.init_policy is not None:
-        if len(args.init_policy) != 1:
-            cli.fail(f"--init_policy takes one checkpoint for a single-agent task, got {args.init_policy}")
-        args.init_policy = args.init_policy[0]
-    resume_path = None
-    if args.resume or args.checkpoint:
-        resume_path = args.checkpoint or cli.latest_checkpoint(args.log_root, agent_cfg.experiment_name)
-        if not os.path.isfile(resume_path):
-            cli.fail(f"checkpoint not found: {resume_path}")
-    if args.init_policy and resume_path:
-        cli.fail("--init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
-    # read before the env is built: a file that is missing or would run code is refused at once
-    resume_contents = cli.read_checkpoint(resume_path, args.trust_checkpoint) if resume_path else None
-    if resume_contents is not None:
-        cli.warn_overrides_not_repeated(resume_contents, {"env": env_cfg, "agent": agent_cfg},
-                                        "continue the training it was in")
-    if args.init_policy is None and resume_path is None:
-        args.init_policy = shipped_init_policy(args.task, agent_cfg)
-    if args.init_policy and not os.path.isfile(args.init_policy):
-        cli.fail(f"--init_policy file not found: {args.init_policy}")
-    if args.init_action_std is not None and (not args.init_policy or not args.init_action_std > 0):
-        cli.fail("--init_action_std needs --init_policy and a positive value "
-                 "(a new run's initial std is agent.actor.distribution_cfg.init_std)")
-    from agile.rl import policy_obs_set, policy_state_key
 
-    init_contents = None
-    if args.init_policy:  # refused before the env is built when it holds no policy
-        init_contents = as_policy_checkpoint(cli.read_checkpoint(args.init_policy, args.trust_checkpoint),
-                                             args.init_policy, policy_state_key(agent_cfg))
-    teacher_path = distillation_teacher(args, agent_cfg, resuming=resume_path is not None)
-    if args.inject_nan_actions is not None:
-        share, every = args.inject_nan_actions
-        if not (0.0 < share <= 1.0 and every >= 1 and every == int(every)):
-            cli.fail(f"--inject_nan_actions SHARE EVERY: SHARE within (0, 1], EVERY a whole number >= 1; got "
-                     f"{share:g} {every:g}")
-
-    from agile.rl.checkpoints import restore_runner
-    from agile.rl.runner import training_runner
-    from agile.rl.progress import show_progress
-    from agile.rl.algorithms.distillation import load_teacher
-    from agile.rl.rsl_rl_adapter import set_git_status_repos
-    from agile.rl.algorithms.reward_normalization import starts_normalizing
-
-    env = cli.make_env(args.task, env_cfg, device, use_cache=not args.no_cache)
-    print(f"[agile] {args.task}: {env.num_envs} envs on {device}, "
-          f"obs {env.observation_manager.group_dims}, actions {env.action_manager.total_action_dim}")
-    log_dir = None  # distributed: rank 0 writes the logs, checkpoints and exports
-    if rank is None or rank.is_main:
-        log_dir = cli.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
-        cli.dump_configs(log_dir, env_cfg, agent_cfg)
-    wrap = None
-    if args.inject_nan_actions is not None:
-        from agile.rl.fault_injection import NanActionVecEnv
-
-        share, every = args.inject_nan_actions
-        wrap = partial(NanActionVecEnv, share=share, every_iterations=int(every),
-                       steps_per_iteration=agent_cfg.num_steps_per_env)
-    with cli.quiet_stdout():
-        runner = training_runner(env, agent_cfg, log_dir, wrap, overrides=args.overrides)
-    print(f"[agile] algorithm: {type(runner.alg).__name__}")  # e.g. RewardNormalizationL2C2SyncFreeUpdatePPO: extensions too
-    set_git_status_repos(runner, cli.git_repos())
-    if log_dir is not None:
-        show_progress(runner, args.progress, args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
-    if resume_path:
-        print(f"[agile] resuming from {resume_path}")
-        restore_runner(runner, resume_contents)  # loaded on the CPU: a GPU run can be resumed on another device
-        env_state = (resume_contents.get("infos") or {}).get("env_state")
-        if env_state is not None:  # step counter (reward-weight ramps) and terrain levels
-            try:
-                env.load_training_state(env_state)
-            except ValueError as err:  # a checkpoint of another env (terrain, curriculum terms, env count)
-                cli.fail(f"--checkpoint {resume_path}: {err}")
-        else:
-            print("[agile] the checkpoint holds no env state (an older checkpoint): curricula start over")
-        print(f"[agile] continuing at iteration {runner.current_learning_iteration}")
-    if teacher_path:
-        print(f"[agile] teacher: {teacher_path}")
-        try:
-            load_teacher(runner, teacher_path, trust=args.trust_checkpoint)
-        except ValueError as err:
-            cli.fail(str(err))
-    if args.init_policy:
-        print(f"[agile] {policy_obs_set(agent_cfg)} initialised from {args.init_policy}")
-        start = initial_policy_checkpoint(init_contents, args.init_policy, policy_state_key(agent_cfg), log_dir,
-                                          args.init_action_std)
-        restore_runner(runner, start, load_cfg={policy_obs_set(agent_cfg): True})
-    iterations, warmup = agent_cfg.max_iterations, 0
-    rescaled = starts_normalizing(agent_cfg, resume_contents)
-    if rescaled:
-        print("[agile] the checkpoint was trained without reward normalisation: its statistics start afresh, and the "
-              "critic learned returns of another scale (critic_warmup_iterations applies)")
-    if args.init_policy or rescaled:
-        warmup = min(getattr(agent_cfg, "critic_warmup_iterations", 0), iterations)
-    if warmup > 0:
-        warm_up_critic(runner, warmup, agent_cfg.critic_warmup_learning_rate)
-        iterations -= warmup
-    if args.video:
-        learn_with_clips(runner, args, env_cfg, device, log_dir, iterations, random_episode_starts=warmup == 0)
-    elif iterations > 0:
-        runner.learn(num_learning_iterations=iterations, init_at_random_ep_len=warmup == 0)
-    if rank is not None:
-        check_rank_weights(runner, rank)
-    if log_dir is not None:
-        from agile.run.export import export
-
-        paths = export(args.task, env, agent_cfg, runner, os.path.join(log_dir, "exported"))
-        print(f"[agile] logs and checkpoints in {log_dir}; exported policy in {os.path.dirname(paths['jit'])}")
-    env.close()
+@command
+def main(argv=None) -> None:
+    args = arguments.parse(build_parser(), argv)
+    train(task=args.task, num_envs=args.num_envs, device=args.device, seed=args.seed, rnn=args.rnn,
+          overrides=args.overrides, max_iterations=args.max_iterations, resume=args.resume, checkpoint=args.checkpoint,
+          init_policy=args.init_policy or (), init_action_std=args.init_action_std, logger=args.logger,
+          run_name=args.run_name, log_root=args.log_root, video=args.video, video_interval=args.video_interval,
+          video_length=args.video_length, inject_nan_actions=args.inject_nan_actions,
+          progress=args.progress, full_log_every=args.full_log_every, teacher=args.teacher,
+          distributed=args.distributed, trust_checkpoint=args.trust_checkpoint, collect_datasets_anew=args.no_cache)
 
 
 if __name__ == "__main__":

@@ -147,9 +147,10 @@ class ProcessEncoders:
         return lines[-1] if lines else f"exit status {self._workers[k].returncode}"
 
 
-def serve(fps: int, source=None) -> None:
-    """A worker: encode the messages read from `source` (stdin) until it closes. One encoder thread: the
-    parallelism is across processes."""
+def serve(fps: int, source=None) -> int:
+    """A worker: encode the messages read from `source` (stdin) until it closes; the worker process's exit status
+    (1: a video failed, its error the last line on stderr). One encoder thread: the parallelism is across
+    processes."""
     source = source or sys.stdin.buffer
     encoders = InlineEncoders(fps, threads=1)
     while line := source.readline():
@@ -159,8 +160,9 @@ def serve(fps: int, source=None) -> None:
             _serve_one(encoders, message, path, source)
         except Exception as err:  # the last line of stderr is what the recording process reports
             print(f"{path}: {type(err).__name__}: {err}", file=sys.stderr, flush=True)
-            raise SystemExit(1) from None
+            return 1
     encoders.close()
+    return 0
 
 
 def _serve_one(encoders: InlineEncoders, message: dict, path: Path, source) -> None:
@@ -178,4 +180,4 @@ def _serve_one(encoders: InlineEncoders, message: dict, path: Path, source) -> N
 
 
 if __name__ == "__main__":
-    serve(int(sys.argv[1]))
+    sys.exit(serve(int(sys.argv[1])))

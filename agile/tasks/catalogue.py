@@ -11,10 +11,9 @@ import dataclasses
 import math
 from pathlib import Path
 
-from agile.tasks import load_cfgs, pretrained_policy, registered_tasks, task_kind, task_spec
-from agile.utils.config import load_entry_point
+from agile.tasks import TASK_KINDS, load_cfgs, pretrained_policy, registered_tasks, task_kind, task_spec
 
-CATALOGUE_KINDS = ("trainable", "distilled", "debug", "multi_agent", "record")
+CATALOGUE_KINDS = TASK_KINDS
 """trainable: PPO on its own reward; distilled: a student whose agent cfg is a DistillationRunnerCfg;
 debug: watched and driven by hand in the GUI (one may play the policy of the task it debugs); multi_agent: a
 MultiAgentEnv (several robots, own rates)."""
@@ -54,19 +53,9 @@ class TaskEntry:
     """{metric name: minimum required}."""
 
 
-def _is_distilled(task: str) -> bool:
-    from agile.rl import DistillationRunnerCfg
-
-    agent_cfg = load_entry_point(task_spec(task).kwargs["rsl_rl_cfg_entry_point"])()
-    return isinstance(agent_cfg, DistillationRunnerCfg)
-
-
 def catalogue_kind(task: str) -> str:
-    """One of CATALOGUE_KINDS: the registry's kind, with 'trainable' split into trainable and distilled."""
-    kind = task_kind(task)
-    if kind == "trainable" and _is_distilled(task):
-        return "distilled"
-    return kind
+    """One of CATALOGUE_KINDS: the task spec's kind."""
+    return task_kind(task)
 
 
 def has_height_command(env_cfg) -> bool:
@@ -78,7 +67,7 @@ def has_height_command(env_cfg) -> bool:
 
 def task_entry(task: str) -> TaskEntry:
     """The catalogue entry of one registered task (KeyError naming the registered tasks for an unknown one)."""
-    kwargs = task_spec(task).kwargs
+    spec = task_spec(task)
     kind = catalogue_kind(task)
     height, velocity = False, True
     if kind in EVALUATED_KINDS:  # multi-agent configs have no single base_velocity command
@@ -86,12 +75,12 @@ def task_entry(task: str) -> TaskEntry:
         height = has_height_command(env_cfg)
         velocity = getattr(getattr(env_cfg, "commands", None), "base_velocity", None) is not None
     criteria = dict(HEIGHT_CRITERIA if height else DEFAULT_CRITERIA if velocity else NO_VELOCITY_CRITERIA)
-    criteria.update(kwargs.get("eval_criteria", {}))
-    settings = {**DEFAULT_EVAL_SETTINGS, **kwargs.get("eval_settings", {})}
+    criteria.update(spec.eval_criteria)
+    settings = {**DEFAULT_EVAL_SETTINGS, **spec.eval_settings}
     evaluated = kind in EVALUATED_KINDS
     return TaskEntry(task=task, kind=kind, policy=pretrained_policy(task), has_height_command=height,
                      eval_settings=settings, criteria=criteria if evaluated else {},
-                     minima=dict(kwargs.get("eval_minima", {})) if evaluated else {})
+                     minima=dict(spec.eval_minima) if evaluated else {})
 
 
 def catalogue() -> list[TaskEntry]:

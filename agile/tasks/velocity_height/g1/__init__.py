@@ -21,6 +21,8 @@ TASKS = {  # id: (env cfg function, runner cfg function)
                                                        "g1_velocity_height_history_finetune_runner_cfg"),
 }
 
+DISTILLED = ("Velocity-Height-G1-Student-Recurrent-v0", "Velocity-Height-G1-Student-History-v0")
+"""The students that learn from the teacher by distillation (the finetune tasks train them further by PPO)."""
 TEACHER_CRITERIA = {"fall_rate": 0.05, "lin_vel_error_mps": 0.15, "base_height_error_m": 0.05}
 """What the teacher must reach (over 20 s episodes, pushes off); eval_all.py checks it."""
 STUDENT_CRITERIA = {metric: 1.25 * maximum for metric, maximum in TEACHER_CRITERIA.items()}
@@ -30,4 +32,5 @@ for task_id, (env_cfg, runner_cfg) in TASKS.items():
     # the teacher's two IDs share the policy shipped as Velocity-Height-G1-Teacher-v0.pt
     register_task(task_id, f"{ENV_CFGS}:{env_cfg}", f"{AGENT_CFGS}:{runner_cfg}",
                   shipped_policy="Velocity-Height-G1-Teacher-v0" if env_cfg == TEACHER_ENV_CFG else task_id,
-                  eval_criteria=STUDENT_CRITERIA if "Student" in task_id else TEACHER_CRITERIA)
+                  eval_criteria=STUDENT_CRITERIA if "Student" in task_id else TEACHER_CRITERIA,
+                  kind="distilled" if task_id in DISTILLED else "trainable")

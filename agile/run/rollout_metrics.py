@@ -21,8 +21,8 @@ JSON files written before these were merged have the command terms' under "comma
 
 from __future__ import annotations
 
-from agile.run import common as cli
-from agile.run.eval_breakdowns import (HEIGHT_BIN_EDGES_M, SPEED_BIN_EDGES_MPS, YAW_RATE_BIN_EDGES_RADPS,
+from agile.errors import AgileError
+from agile.run.metric_breakdowns import (HEIGHT_BIN_EDGES_M, SPEED_BIN_EDGES_MPS, YAW_RATE_BIN_EDGES_RADPS,
                                        ErrorByCommand, FallsByTime, OutcomesByVariant, spawn_cell_variants)
 
 FALL_TIME_BIN_S = 1.0
@@ -37,9 +37,10 @@ def velocity_command_name(env, command_name: str | None = None) -> str | None:
     terms = env.command_manager.terms
     with_velocity = [name for name, term in terms.items() if term.command_fields[:3] == VELOCITY_FIELDS]
     if command_name is not None and command_name not in with_velocity:
-        cli.fail(f"command '{command_name}' is not a velocity command; the task's velocity commands: {with_velocity}")
+        raise AgileError(f"command '{command_name}' is not a velocity command; the task's velocity commands: "
+                         f"{with_velocity}")
     if command_name is None and len(with_velocity) > 1:
-        cli.fail(f"the task has several velocity commands {with_velocity}: name the one to evaluate")
+        raise AgileError(f"the task has several velocity commands {with_velocity}: name the one to evaluate")
     return command_name or (with_velocity[0] if with_velocity else None)
 
 
