@@ -26,7 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from agile.run import common as cli
+from agile.errors import AgileError
+from agile.run import arguments
 
 EXIT_FAULT = 1
 
@@ -41,7 +42,7 @@ def keyboard(signals) -> None:
 
 
 def parse_args(argv):
-    parser = cli.new_parser(__doc__)
+    parser = arguments.new_parser(__doc__)
     parser.add_argument("--bundle", required=True, metavar="TASK.yaml", help="a LEAPP bundle (agile export "
                         "--format leapp)")
     parser.add_argument("--robot", default="g1", help="the robot: g1 (Unitree DDS) or t1 (Booster SDK)")
@@ -66,15 +67,15 @@ def parse_args(argv):
     parser.add_argument("--dry_run", action="store_true", help="compute everything, write no command")
     parser.add_argument("--log", default=None, metavar="PATH.json",
                         help="write the transitions, the loop's latency and jitter, and counters as JSON")
-    args = parser.parse_args(argv)  # not cli.parse: it initialises Warp, unused here, before the input is checked
+    args = parser.parse_args(argv)  # not arguments.parse: it initialises Warp, unused here, before the input is checked
     for name in ("damping_s", "move_duration_s", "first_state_timeout_s", "max_tilt_deg"):
         if getattr(args, name) <= 0:
-            cli.fail(f"--{name} must be positive, got {getattr(args, name)}")
+            raise AgileError(f"--{name} must be positive, got {getattr(args, name)}")
     for name in ("duration_s", "max_state_age_s"):
         if getattr(args, name) is not None and getattr(args, name) <= 0:
-            cli.fail(f"--{name} must be positive, got {getattr(args, name)}")
+            raise AgileError(f"--{name} must be positive, got {getattr(args, name)}")
     if not 0 <= args.domain_id <= 232:
-        cli.fail(f"--domain_id must be in 0..232 (DDS), got {args.domain_id}")
+        raise AgileError(f"--domain_id must be in 0..232 (DDS), got {args.domain_id}")
     return args
 
 
@@ -88,18 +89,18 @@ def prepare(args):
         bundle = read_deploy_bundle(args.bundle, spec)
         check_interface(args.interface)
     except DeployError as err:
-        cli.fail(str(err))
+        raise AgileError(str(err)) from None
     command = default_command(bundle) if args.command is None else np.array(args.command)
     if command.shape != (bundle.command_size,):
-        cli.fail(f"--command: {bundle.task} takes {bundle.command_size} values ({' '.join(bundle.command_elements)}), "
+        raise AgileError(f"--command: {bundle.task} takes {bundle.command_size} values ({' '.join(bundle.command_elements)}), "
                  f"got {len(args.command)}")
     if args.remote and spec.name != "g1":
-        cli.fail("--remote reads the G1's wireless remote in LowState_; the t1 has none in its SDK's LowState")
+        raise AgileError("--remote reads the G1's wireless remote in LowState_; the t1 has none in its SDK's LowState")
     sdk = {"g1": "unitree_sdk2py", "t1": "booster_robotics_sdk_python"}[spec.name]
     try:
         __import__(sdk)
     except ImportError:
-        cli.fail(f"--robot {spec.name} needs the {sdk} package: pip install 'agile[deploy]'")
+        raise AgileError(f"--robot {spec.name} needs the {sdk} package: pip install 'agile[deploy]'")
     return spec, bundle, command
 
 
@@ -140,6 +141,7 @@ def open_link(spec, args):
     return T1Link()
 
 
+@arguments.command
 def main(argv=None) -> None:
     args = parse_args(argv)
     spec, bundle, command = prepare(args)

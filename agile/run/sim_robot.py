@@ -21,12 +21,14 @@ import signal
 import threading
 from pathlib import Path
 
-from agile.run import common as cli
+from agile.errors import AgileError
+from agile.run import arguments
 from agile.run.deploy import exit_without_dds_teardown
 
 
+@arguments.command
 def main(argv=None) -> None:
-    parser = cli.new_parser(__doc__)
+    parser = arguments.new_parser(__doc__)
     parser.add_argument("--robot", default="g1", help="the robot to simulate: g1")
     parser.add_argument("--interface", default="lo", help="the network interface DDS runs on")
     parser.add_argument("--domain_id", type=int, default=0, help="the DDS domain")
@@ -42,31 +44,31 @@ def main(argv=None) -> None:
     parser.add_argument("--duration_s", type=float, default=None, help="simulated seconds, then exit")
     parser.add_argument("--seed", type=int, default=0, help="seed of the dropped messages")
     parser.add_argument("--out", default=None, metavar="PATH.json", help="write counters and samples here at exit")
-    args = parser.parse_args(argv)  # not cli.parse: it initialises Warp, unused here, before the input is checked
+    args = parser.parse_args(argv)  # not arguments.parse: it initialises Warp, unused here, before the input is checked
     if args.robot != "g1":
-        cli.fail(f"--robot: sim_robot simulates g1 only (the Booster SDK's Python binding publishes no T1 LowState);"
+        raise AgileError(f"--robot: sim_robot simulates g1 only (the Booster SDK's Python binding publishes no T1 LowState);"
                  f" got '{args.robot}'")
     if not 0 <= args.drop_rate < 1:
-        cli.fail(f"--drop_rate must be in [0, 1), got {args.drop_rate}")
+        raise AgileError(f"--drop_rate must be in [0, 1), got {args.drop_rate}")
     for name in ("latency_s", "gantry_release_s"):
         if getattr(args, name) < 0:
-            cli.fail(f"--{name} must be at least 0, got {getattr(args, name)}")
+            raise AgileError(f"--{name} must be at least 0, got {getattr(args, name)}")
     for name in ("physics_dt_s", "freeze_after_s", "stop_after_s", "duration_s"):
         if getattr(args, name) is not None and getattr(args, name) <= 0:
-            cli.fail(f"--{name} must be positive, got {getattr(args, name)}")
+            raise AgileError(f"--{name} must be positive, got {getattr(args, name)}")
     if not 0 <= args.domain_id <= 232:
-        cli.fail(f"--domain_id must be in 0..232 (DDS), got {args.domain_id}")
+        raise AgileError(f"--domain_id must be in 0..232 (DDS), got {args.domain_id}")
     from agile.deploy.robots import DeployError
     from agile.deploy.unitree_g1 import check_interface
 
     try:
         check_interface(args.interface)
     except DeployError as err:
-        cli.fail(str(err))
+        raise AgileError(str(err)) from None
     try:
         import unitree_sdk2py  # noqa: F401
     except ImportError:
-        cli.fail("sim_robot needs the unitree_sdk2py package: pip install 'agile[deploy]'")
+        raise AgileError("sim_robot needs the unitree_sdk2py package: pip install 'agile[deploy]'")
     from agile.deploy.simulator import DDSRobotSimulator, G1Simulation, SimFaults, g1_robot_config
     from agile.deploy.unitree_g1 import start_dds
 
