@@ -337,7 +337,7 @@ def main(argv=None) -> None:
                        steps_per_iteration=agent_cfg.num_steps_per_env)
     with cli.quiet_stdout():
         runner = training_runner(env, agent_cfg, log_dir, wrap, overrides=args.overrides)
-    print(f"[agile] algorithm: {type(runner.alg).__name__}")  # e.g. RewardNormalizationL2C2SyncFreeUpdatePPO: extensions too
+    print(f"[agile] algorithm: {type(runner.alg).__name__}")  # e.g. L2C2SyncFreeUpdatePPO: extensions too
     set_git_status_repos(runner, cli.git_repos())
     if log_dir is not None:
         show_progress(runner, args.progress, args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
