@@ -1,6 +1,6 @@
 """AGILE's entropy-coefficient annealing (`entropy_annealing`, the EntropyAnnealing mixin): the coefficient decays per
-iteration once the run is past its start iteration and the ended episodes last long enough, never below its minimum; it survives a checkpoint;
-bad settings name the field (CPU, rsl-rl's algorithm on a fake env)."""
+iteration once the run is past its start iteration and the ended episodes last long enough, never below its minimum;
+it survives a checkpoint; bad settings name the field (CPU, rsl-rl's algorithm on a fake env)."""
 
 from __future__ import annotations
 
@@ -105,7 +105,8 @@ def test_bad_settings_name_the_field(field, value, message):
 def test_pick_place_anneals_as_agile_does():
     _, agent_cfg = agile.tasks.load_cfgs("PickPlace-G1-v0")
     algorithm = to_rsl_rl_dict(agent_cfg)["algorithm"]
-    assert issubclass(algorithm["class_name"], EntropyAnnealing) and algorithm["class_name"].__name__ == "EntropyAnnealingPPO"
+    cls = algorithm["class_name"]
+    assert issubclass(cls, EntropyAnnealing) and cls.__name__ == "EntropyAnnealingPPO"
     assert algorithm["entropy_annealing"] == {"start_iteration": 2000, "min_episode_length_share": 0.3,
                                               "decay_per_iteration": 0.9998, "min_entropy_coef": 0.001}
     agent_cfg.algorithm.entropy_annealing.decay_per_iteration = 0.0

@@ -99,8 +99,8 @@ def test_a_bad_setting_is_named(values, field):
 @pytest.mark.gpu
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
 def test_the_captured_update_replays_the_term_with_new_draws():
-    """The captured update records the mini-batch step, the L2C2 term's random pairs included, and replays it: the replayed
-    updates log a term that changes with the draws and the rollout."""
+    """The captured update records the mini-batch step, the L2C2 term's random pairs included, and replays it: the
+    replayed updates log a term that changes with the draws and the rollout."""
     algorithm = ppo_algorithm("PPO", NUM_ENVS, NUM_STEPS, OBS_DIM, NUM_ACTIONS, device="cuda:0", captured_update=True,
                               l2c2={})
     terms = []

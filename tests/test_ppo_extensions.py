@@ -1,5 +1,5 @@
-"""The one way to extend rsl-rl's algorithms (agile.rl.extensions): each extension switched on and off from the algorithm
-config, several combined into one class that trains, what cannot combine refused by name, the retired class names
+"""The one way to extend rsl-rl's algorithms (agile.rl.extensions): each extension switched on and off from the
+algorithm config, several combined into one class that trains, what cannot combine refused by name, the retired class names
 (checkpoints, recipes, docs) still loading, and the rsl-rl version the adapter checks (CPU, on a fake env)."""
 
 from __future__ import annotations

@@ -281,8 +281,8 @@ RUNNER_ONLY_KEYS = ("experiment_name", "seed", "max_iterations", "teacher_task",
 
 
 def to_rsl_rl_dict(cfg: RunnerCfg) -> dict:
-    """The train_cfg dict of `rsl_rl.runners.OnPolicyRunner` (keys of ours that it does not know removed; the algorithm's
-    extensions composed into its class, `agile.rl.extensions`)."""
+    """The train_cfg dict of `rsl_rl.runners.OnPolicyRunner` (keys of ours that it does not know removed; the
+    algorithm's extensions composed into its class, `agile.rl.extensions`)."""
     from agile.rl.extensions import compose_algorithm
 
     if is_distillation(cfg):

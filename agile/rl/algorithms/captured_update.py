@@ -1,5 +1,5 @@
-"""The sync-free PPO update whose mini-batch step runs as one CUDA graph: the same math, a few graph launches per update instead
-of a few thousand kernel launches from Python.
+"""The sync-free PPO update whose mini-batch step runs as one CUDA graph: the same math, a few graph launches per update
+instead of a few thousand kernel launches from Python.
 
 An update of AGILE's PPO settings takes 20 mini-batch steps (5 epochs x 4 mini-batches), each a forward and backward
 pass of actor and critic over the mirrored batch, the clipped losses, gradient clipping and a fused Adam step: about
@@ -49,7 +49,8 @@ class CapturedUpdate(SyncFreeUpdate):
     def __init__(self, *args, device: str = "cpu", **kwargs):
         super().__init__(*args, device=device, **kwargs)
         self.captures = torch.device(self.device).type == "cuda"
-        """Whether updates replay a captured mini-batch step (else each step runs eagerly, as in the sync-free update)."""
+        """Whether updates replay a captured mini-batch step (else each step runs eagerly, as the sync-free update
+        does)."""
         if self.captures:  # a graph replays Adam's step only if its step count lives on the device
             self.optimizer = torch.optim.Adam(chain(self.actor.parameters(), self.critic.parameters()),
                                               lr=self.learning_rate_t, fused=True, capturable=True)

@@ -25,7 +25,8 @@ from agile.utils.config import checked_cfg
 
 
 class L2C2:
-    """The sync-free (or captured) update with the L2C2 term in its loss (see the module). A mixin: in front of theirs."""
+    """The sync-free (or captured) update with the L2C2 term in its loss (see the module). A mixin: in front of
+    theirs."""
 
     regularization_name = "l2c2"
 

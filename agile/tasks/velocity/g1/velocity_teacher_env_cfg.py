@@ -19,8 +19,8 @@ from agile.tasks.velocity import mdp
 from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, VelocityEventsCfg,
                                                   random_upper_body_action_cfg, uniform_root_reset, velocity_events_cfg,
                                                   velocity_sim_cfg)
-from agile.tasks.velocity.g1.velocity_g1_common import (COMMAND, FEET, FEET_CONTACT, FOOT_BODIES, LEGS, STANDING_HEIGHT_M,
-                                                        TRUNK_CONTACT_BODIES, PrivilegedCriticObsCfg,
+from agile.tasks.velocity.g1.velocity_g1_common import (COMMAND, FEET, FEET_CONTACT, FOOT_BODIES, LEGS,
+                                                        STANDING_HEIGHT_M, TRUNK_CONTACT_BODIES, PrivilegedCriticObsCfg,
                                                         PrivilegedPolicyObsCfg, velocity_height_scene_cfg)
 from agile.utils.config import configclass
 
