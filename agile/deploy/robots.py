@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from agile.assets.unitree_g1_joints import G1_JOINT_ORDER
 from agile.errors import AgileError
 
 
@@ -17,17 +18,7 @@ class DeployError(AgileError):
     """Input `agile deploy` / `agile sim_robot` refuse: a bundle, a robot, an interface, an option."""
 
 
-G1_MOTOR_JOINTS = (
-    "left_hip_pitch_joint", "left_hip_roll_joint", "left_hip_yaw_joint", "left_knee_joint",
-    "left_ankle_pitch_joint", "left_ankle_roll_joint",
-    "right_hip_pitch_joint", "right_hip_roll_joint", "right_hip_yaw_joint", "right_knee_joint",
-    "right_ankle_pitch_joint", "right_ankle_roll_joint",
-    "waist_yaw_joint", "waist_roll_joint", "waist_pitch_joint",
-    "left_shoulder_pitch_joint", "left_shoulder_roll_joint", "left_shoulder_yaw_joint", "left_elbow_joint",
-    "left_wrist_roll_joint", "left_wrist_pitch_joint", "left_wrist_yaw_joint",
-    "right_shoulder_pitch_joint", "right_shoulder_roll_joint", "right_shoulder_yaw_joint", "right_elbow_joint",
-    "right_wrist_roll_joint", "right_wrist_pitch_joint", "right_wrist_yaw_joint",
-)
+G1_MOTOR_JOINTS = G1_JOINT_ORDER
 """The 29-DoF G1's motor index order (unitree_sdk2 `G1JointIndex`: legs, waist, arms), also the Menagerie MJCF's."""
 
 T1_MOTOR_JOINTS = (

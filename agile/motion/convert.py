@@ -17,20 +17,11 @@ from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation, RotationSpline
 
 from agile.motion.motion_file import MotionData
+from agile.assets.unitree_g1_joints import G1_JOINT_ORDER
 from agile.sim import ArticulationCfg
 from agile.sim.entities.model_import import build_articulation
 
-G1_CSV_JOINT_NAMES = [
-    "left_hip_pitch_joint", "left_hip_roll_joint", "left_hip_yaw_joint", "left_knee_joint",
-    "left_ankle_pitch_joint", "left_ankle_roll_joint",
-    "right_hip_pitch_joint", "right_hip_roll_joint", "right_hip_yaw_joint", "right_knee_joint",
-    "right_ankle_pitch_joint", "right_ankle_roll_joint",
-    "waist_yaw_joint", "waist_roll_joint", "waist_pitch_joint",
-    "left_shoulder_pitch_joint", "left_shoulder_roll_joint", "left_shoulder_yaw_joint", "left_elbow_joint",
-    "left_wrist_roll_joint", "left_wrist_pitch_joint", "left_wrist_yaw_joint",
-    "right_shoulder_pitch_joint", "right_shoulder_roll_joint", "right_shoulder_yaw_joint", "right_elbow_joint",
-    "right_wrist_roll_joint", "right_wrist_pitch_joint", "right_wrist_yaw_joint",
-]
+G1_CSV_JOINT_NAMES = list(G1_JOINT_ORDER)
 """Joint order of the public retargeted G1 CSVs (the 29-DoF G1 URDF's order)."""
 ROOT_COLUMNS = 7  # position (3), quaternion xyzw (4)
 
