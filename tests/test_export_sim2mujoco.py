@@ -20,7 +20,8 @@ from agile.rl_env.io_descriptor_file import read_io_descriptor, write_io_descrip
 from commands import FLAT_GROUND
 from scenes import robot_sim
 
-from agile.run import mujoco_robot, sim2mujoco  # noqa: E402
+from agile.deploy import mujoco_robot
+from agile.run import sim2mujoco  # noqa: E402
 
 
 TASK = "Velocity-G1-History-v0"

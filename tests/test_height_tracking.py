@@ -332,7 +332,7 @@ def test_the_exported_policy_runs_a_height_ramp_in_plain_mujoco(env_and_agent, t
     from agile.rl import RslRlVecEnvWrapper, to_rsl_rl_dict
     from agile.run import sim2mujoco
     from agile.run.export import export
-    from agile.run.mujoco_policy import DescriptorPolicy, yaml_load
+    from agile.deploy.mujoco_policy import DescriptorPolicy, yaml_load
 
     env, agent_cfg = env_and_agent
     runner = OnPolicyRunner(RslRlVecEnvWrapper(env), to_rsl_rl_dict(agent_cfg), log_dir=None, device="cpu")

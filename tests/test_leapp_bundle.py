@@ -13,7 +13,8 @@ from commands import run_command
 import agile.tasks
 from agile.rl.checkpoints import load_checkpoint
 from agile.export.leapp_bundle import SUPPORTED_OBSERVATIONS, DeployGraph, UnsupportedPolicyError
-from agile.run import mujoco_robot, sim2mujoco
+from agile.deploy import mujoco_robot
+from agile.run import sim2mujoco
 from agile.run.env import build_env
 from agile.run.export import export, export_leapp
 from agile.run.mujoco_commands import make_commands
@@ -82,6 +83,19 @@ def test_the_bundle_gives_the_torchscript_policys_targets_on_the_same_states(exp
                 mujoco.mj_step(model, data)
     assert worst_rad < 1e-4, f"bundle and TorchScript targets differ by up to {worst_rad:.2e} rad"
     assert data.qpos[2] > 0.5 * descriptor["default_root_height_m"], "the robot fell: the comparison saw no walking"
+
+
+def test_the_bundles_onnx_sessions_run_on_one_thread_that_does_not_spin(exported):
+    """ONNX Runtime's defaults (a pool of one thread per core, spinning between runs) keep a core busy between a
+    deployed policy's runs (agile/deploy/leapp_runtime.py); the runtime's sessions are built without them."""
+    from agile.deploy.leapp_runtime import BundleRuntime
+
+    runtime = BundleRuntime(str(exported[1]))
+    assert runtime.sessions, "the bundle has no ONNX node: nothing was checked"
+    for name, session in runtime.sessions.items():
+        options = session.get_session_options()
+        assert options.intra_op_num_threads == 1, name
+        assert options.get_session_config_entry("session.intra_op.allow_spinning") == "0", name
 
 
 def test_the_bundle_names_what_a_deployer_wires(exported):

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from agile.deploy.robots import DeployBundle, RobotSpec
-from agile.run.mujoco_robot import rotate_inverse
+from agile.deploy.mujoco_robot import rotate_inverse
 
 
 @dataclass
@@ -48,7 +48,7 @@ class DeployPolicy:
     gains."""
 
     def __init__(self, bundle: DeployBundle, robot: RobotSpec):
-        from agile.run.mujoco_policy import BundleRuntime
+        from agile.deploy.mujoco_policy import BundleRuntime
 
         cfg = bundle.robot
         motor = {name: i for i, name in enumerate(robot.motor_joints)}

@@ -22,7 +22,7 @@ import yaml
 
 from agile.deploy.robots import ROBOTS
 from agile.deploy.unitree_g1 import G1RobotSide, MotorCommand, Remote
-from agile.run.mujoco_robot import Robot, build_model, rotate_inverse
+from agile.deploy.mujoco_robot import Robot, build_model, rotate_inverse
 
 FALL_TILT_RAD = math.radians(60.0)
 FALL_HEIGHT_FRACTION = 0.5  # of the default root height, as sim2mujoco's

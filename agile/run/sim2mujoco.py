@@ -27,9 +27,9 @@ from agile.run.arguments import command
 from agile.run import arguments
 from agile.errors import AgileError
 from agile.run.mujoco_commands import make_commands
-from agile.run.mujoco_policy import (BundlePolicy, DescriptorPolicy, OnnxPolicy, TorchScriptPolicy,  # noqa: F401
+from agile.deploy.mujoco_policy import (BundlePolicy, DescriptorPolicy, OnnxPolicy, TorchScriptPolicy,  # noqa: F401
                                      bundle_descriptor, read_bundle, yaml_load)
-from agile.run.mujoco_robot import Robot, build_model, rotate_inverse
+from agile.deploy.mujoco_robot import Robot, build_model, rotate_inverse
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # for agile.assets (robot files) from a checkout
 

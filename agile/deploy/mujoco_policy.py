@@ -12,11 +12,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from agile.errors import AgileError
-from agile.run.mujoco_robot import rotate_inverse
-from agile.utils.output import quiet_python_output
+from agile.deploy.mujoco_robot import rotate_inverse
+from agile.deploy.leapp_runtime import BundleRuntime
 
 if TYPE_CHECKING:
-    from agile.run.mujoco_robot import Robot
+    from agile.deploy.mujoco_robot import Robot
 
 
 def yaml_load(path: str) -> dict:
@@ -175,54 +175,6 @@ def bundle_descriptor(bundle: dict) -> dict:
     """The robot, rates and commands of a bundle, in the IO descriptor's keys (what `run` reads)."""
     configs = bundle["pipeline"]["configs"]
     return {"task": configs["task"], **configs["robot"], "commands": configs["commands"]}
-
-
-class BundleRuntime:
-    """A LEAPP bundle run by LEAPP's own runtime (`leapp.InferenceManager`), from raw state by input name: what
-    `BundlePolicy` (MuJoCo) and `agile.deploy` (a robot's SDK) share. `inputs` are the raw inputs the bundle reads
-    (`joint_pos`, `joint_vel`, `root_quat_w` (x, y, z, w), `root_lin_vel_b`, `root_ang_vel_b`, `command`), `target_joints`
-    the joints of its position targets; the runtime feeds the last action, histories and hidden state back, from the
-    bundle's initial values after reset()."""
-
-    def __init__(self, path: str):
-        import torch
-
-        try:
-            from leapp import InferenceManager
-        except ImportError:
-            raise AgileError("--bundle needs the leapp package: pip install 'agile[leapp]'")
-
-        self.torch = torch
-        bundle = yaml_load(path)
-        self.node = bundle["pipeline"]["configs"]["task"]
-        model = bundle["models"][self.node]
-        self.inputs = {i["name"]: i for i in model["inputs"] if i["name"] in bundle["pipeline"]["inputs"][self.node]}
-        target = next(o for o in model["outputs"] if o.get("kind") == "target/joint/position")
-        self.target_name = f"{self.node}/{target['name']}"
-        self.target_joints = list(target["element_names"][-1])
-        gains = {o.get("kind"): f"{self.node}/{o['name']}" for o in model["outputs"] if o.get("kind") in ("kp", "kd")}
-        self.kp_name, self.kd_name = gains.get("kp"), gains.get("kd")
-        with quiet_python_output():  # LEAPP's runtime warns on every machine without CUDA
-            self.manager = InferenceManager(path)
-
-    def check_joints(self, joint_names: list[str]) -> None:
-        """Raise ValueError unless the bundle's joint inputs are `joint_names`, in that order."""
-        for name in ("joint_pos", "joint_vel"):
-            if name in self.inputs and self.inputs[name]["element_names"][-1] != joint_names:
-                raise ValueError(f"bundle input {name}: its joints are not the robot's, in the robot's order")
-
-    def reset(self) -> None:
-        self.manager.reset()
-
-    def run(self, raw: dict) -> dict:
-        """`raw`: name -> a float sequence for every name in `inputs`. Returns the outputs by name (`target_name`,
-        `kp_name`, `kd_name`) as float64 arrays of the action joints."""
-        # torch tensors: LEAPP's reset() zeroes its input buffers in place, which numpy arrays would have replaced
-        feeds = {f"{self.node}/{name}": self.torch.from_numpy(np.asarray(raw[name], dtype=np.float32)[None])
-                 for name in self.inputs}
-        outputs = self.manager.run_policy(feeds)
-        return {name: np.asarray(value, dtype=np.float64)[0] for name, value in outputs.items()
-                if name in (self.target_name, self.kp_name, self.kd_name)}
 
 
 class BundlePolicy:
