@@ -354,3 +354,119 @@ def test_the_default_command_of_a_height_policy_stands_at_its_default_height(g1_
     from agile.run.deploy import default_command
 
     np.testing.assert_allclose(default_command(read_deploy_bundle(str(g1_bundle), ROBOTS["g1"])), [0, 0, 0, 0.72])
+
+
+TEACHER_IO = REPO / "agile/data/frozen_policies/Velocity-Height-G1-Teacher-v0/io_descriptor.yaml"
+TEACHER_POLICY = TEACHER_IO.parent / "policy.pt"
+
+
+def test_descriptor_checks(tmp_path):
+    from agile.deploy.robots import read_deploy_descriptor
+
+    g1 = ROBOTS["g1"]
+    with pytest.raises(DeployError, match=r"reads \['root_lin_vel_b'\]"):  # the teacher reads the base velocity
+        read_deploy_descriptor(str(TEACHER_IO), str(TEACHER_POLICY), g1)
+    descriptor = yaml.safe_load(TEACHER_IO.read_text())
+    descriptor["observations"]["policy"] = [t for t in descriptor["observations"]["policy"]
+                                            if t["func"] != "base_lin_vel"]
+    sensed = tmp_path / "io_descriptor.yaml"
+    sensed.write_text(yaml.safe_dump(descriptor))
+    exported = read_deploy_descriptor(str(sensed), str(TEACHER_POLICY), g1)
+    assert exported.command_elements == ("lin_vel_x", "lin_vel_y", "ang_vel_z", "base_height")
+    assert set(exported.inputs) == {"command", "root_ang_vel_b", "root_quat_w", "joint_pos", "joint_vel"}
+    assert exported.policy_file == str(TEACHER_POLICY) and exported.control_dt_s == descriptor["control_dt_s"]
+    with pytest.raises(DeployError, match="--policy: .* is not a policy.pt or policy.onnx"):
+        read_deploy_descriptor(str(sensed), str(sensed), g1)
+    with pytest.raises(DeployError, match="--io: no file"):
+        read_deploy_descriptor(str(tmp_path / "missing.yaml"), str(TEACHER_POLICY), g1)
+    with pytest.raises(DeployError, match="t1.xml"):
+        read_deploy_descriptor(str(sensed), str(TEACHER_POLICY), ROBOTS["t1"])
+    for change, match in (({"version": 1}, "version 1"), ({"observations": {"policy": [
+            {"name": "heights", "func": "height_scan"}]}}, r"heights \(height_scan\)"),
+            ({"actions": [{"name": "a", "type": "JointEffortAction"}]}, r"a \(JointEffortAction\)")):
+        sensed.write_text(yaml.safe_dump({**descriptor, **change}))
+        with pytest.raises(DeployError, match=match):
+            read_deploy_descriptor(str(sensed), str(TEACHER_POLICY), g1)
+    sensed.write_text("a: 1\n")
+    with pytest.raises(DeployError, match="not an IO descriptor"):
+        read_deploy_descriptor(str(sensed), str(TEACHER_POLICY), g1)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--interface", "lo"], "give either --bundle, or --io and --policy"),
+    (["--io", str(TEACHER_IO), "--interface", "lo"], "give either --bundle, or --io and --policy"),
+    (["--bundle", "G1", "--io", str(TEACHER_IO), "--policy", str(TEACHER_POLICY), "--interface", "lo"],
+     "give either --bundle, or --io and --policy"),
+    (["--io", str(TEACHER_IO), "--policy", str(TEACHER_POLICY), "--interface", "lo"], "root_lin_vel_b"),
+    (["--bundle", str(T1_BUNDLE), "--robot", "t1", "--interface", "lo", "--command_topic", "rt/cmd_vel"],
+     "--command_topic is read over Unitree's DDS participant"),
+    (["--bundle", "G1", "--interface", "lo", "--command_topic", "rt/cmd_vel", "--remote"],
+     "--command_topic and --remote"),
+    (["--bundle", "G1", "--interface", "lo", "--command_timeout_s", "0"], "--command_timeout_s must be positive"),
+])
+def test_bad_policy_and_command_input_is_one_line_and_exit_2(args, message, g1_bundle):
+    result = deploy(*[str(g1_bundle) if a == "G1" else a for a in args])
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], result.stderr
+
+
+class Clock:
+    def __init__(self):
+        self.now_s = 0.0
+
+    def __call__(self):
+        return self.now_s
+
+
+def test_the_command_stays_in_the_trained_ranges_and_refuses_what_is_not_finite():
+    from agile.deploy.commands import PolicyCommand, command_ranges, parse_keyboard_line
+
+    commands = {"base_velocity": {"ranges": {"lin_vel_x": [-0.5, 1.0], "lin_vel_y": [-0.5, 0.5],
+                                             "ang_vel_z": [-1.0, 1.0], "base_height_m": [0.4, 0.75]}}}
+    lower, upper = command_ranges(commands, ("lin_vel_x", "lin_vel_y", "ang_vel_z", "base_height"))
+    np.testing.assert_allclose(lower, [-0.5, -0.5, -1.0, 0.4])
+    command = PolicyCommand(initial=np.array([0.0, 0.0, 0.0, 0.72]), lower=lower, upper=upper, clock=Clock())
+    assert command.set(parse_keyboard_line("2.0 0 -3"), "the keyboard")  # clipped, the height kept
+    np.testing.assert_allclose(command(), [1.0, 0.0, -1.0, 0.72])
+    assert command.set([0.3, 0.1, 0.2, 0.1], "the keyboard")
+    np.testing.assert_allclose(command(), [0.3, 0.1, 0.2, 0.4])
+    assert command.clipped == 2
+    assert not command.set([np.nan, 0, 0], "the keyboard") and not command.set([0.1, 0.2], "the keyboard")
+    assert not command.set([0, 0, 0, 0.5, 1], "the keyboard")
+    assert command.refused == 3 and parse_keyboard_line("go") is None and parse_keyboard_line("1 2") is None
+    np.testing.assert_allclose(command(), [0.3, 0.1, 0.2, 0.4])
+    assert [e.text for e in command.events] == ["the keyboard: command 1 0 -1 0.72", "the keyboard: command 0.3 0.1 0.2 0.4"]
+
+
+def test_a_silent_command_topic_leaves_the_robot_standing_until_it_speaks_again():
+    from agile.deploy.commands import PolicyCommand
+
+    clock = Clock()
+    command = PolicyCommand(initial=np.zeros(3), lower=np.full(3, -0.5), upper=np.full(3, 0.5),
+                            stream_timeout_s=0.5, clock=clock)
+    np.testing.assert_allclose(command(), 0.0)  # before the first message: the initial command
+    command.set_velocity_stream(0.4, 0.0, 2.0)
+    np.testing.assert_allclose(command(), [0.4, 0.0, 0.5])
+    command.set_velocity_stream(float("nan"), 0.0, 0.0)  # refused: the last good one holds
+    clock.now_s = 0.4
+    np.testing.assert_allclose(command(), [0.4, 0.0, 0.5])
+    clock.now_s = 0.6
+    np.testing.assert_allclose(command(), 0.0)
+    clock.now_s = 0.7
+    command.set_velocity_stream(-0.2, 0.1, 0.0)
+    np.testing.assert_allclose(command(), [-0.2, 0.1, 0.0])
+    assert [e.text for e in command.events] == ["command topic silent for more than 0.5 s: standing",
+                                                "command topic speaking again"]
+    assert command.summary()["stream_messages"] == 3 and command.refused == 1
+
+
+def test_the_remote_sticks_are_read_per_state_within_the_ranges():
+    from agile.deploy.commands import PolicyCommand
+    from agile.deploy.unitree_g1 import Remote
+
+    command = PolicyCommand(initial=np.zeros(3), lower=np.array([-0.5, -0.5, -1.0]), upper=np.array([1.0, 0.5, 1.0]),
+                            per_state=lambda s: Remote.parse(s.remote).velocity_command(1.0, 0.5, 1.0))
+    s = state()
+    s.remote = bytes(Remote.pack(ly=-1.0, lx=-1.0, rx=0.5))
+    np.testing.assert_allclose(command(s), [-0.5, 0.5, -0.5])

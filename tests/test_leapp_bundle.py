@@ -98,6 +98,40 @@ def test_the_bundles_onnx_sessions_run_on_one_thread_that_does_not_spin(exported
         assert options.get_session_config_entry("session.intra_op.allow_spinning") == "0", name
 
 
+def test_deploy_gives_the_bundles_targets_from_the_io_descriptor_and_policy_onnx(exported):
+    """`agile deploy --io --policy` (the descriptor's observation rules, policy.onnx in ONNX Runtime) and `agile
+    deploy --bundle` give the same joint targets from the same robot states, histories and last action included."""
+    from agile.deploy.policy import DeployPolicy, RobotState, quat_from_rpy
+    from agile.deploy.robots import DeployError, ROBOTS, read_deploy_bundle, read_deploy_descriptor
+
+    paths, bundle = exported
+    robot_file = yaml.safe_load(bundle.read_text())["pipeline"]["configs"]["robot"]["robot_model_file"]
+    robot = next(r for r in ROBOTS.values() if robot_file in r.model_files)
+    try:
+        from_bundle = DeployPolicy(read_deploy_bundle(str(bundle), robot), robot)
+    except DeployError as err:
+        assert "root_lin_vel_b" in str(err)  # a policy that reads the base velocity is refused both ways
+        with pytest.raises(DeployError, match="root_lin_vel_b"):
+            read_deploy_descriptor(paths["io_descriptor"], paths["onnx"], robot)
+        return
+    from_descriptor = DeployPolicy(read_deploy_descriptor(paths["io_descriptor"], paths["onnx"], robot), robot)
+    rng = np.random.default_rng(0)
+    n = len(robot.motor_joints)
+    command = np.array([0.4, 0.0, 0.3, 0.7][:len(from_bundle.runtime.inputs["command"]["element_names"][-1])])
+    worst_rad = 0.0
+    for episode_steps in (30, 20):
+        from_bundle.reset()
+        from_descriptor.reset()
+        for step in range(episode_steps):
+            state = RobotState(q=from_bundle.default_q + rng.normal(0, 0.1, n), dq=rng.normal(0, 0.5, n),
+                               tau=np.zeros(n), quat_wxyz=quat_from_rpy(*rng.normal(0, 0.1, 3)),
+                               gyro_radps=rng.normal(0, 0.3, 3), tick=step, received_s=0.0)
+            q_bundle, _, _ = from_bundle(state, command)
+            q_descriptor, _, _ = from_descriptor(state, command)
+            worst_rad = max(worst_rad, float(np.abs(q_bundle - q_descriptor).max()))
+    assert worst_rad < 1e-4, f"descriptor and bundle targets differ by up to {worst_rad:.2e} rad"
+
+
 def test_the_bundle_names_what_a_deployer_wires(exported):
     paths, bundle = exported
     task = bundle.stem

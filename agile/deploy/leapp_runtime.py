@@ -26,6 +26,24 @@ LEAPP_VERSION = "0.7.2"
 """The leapp version whose internals `_single_threaded_sessions` reaches (pyproject.toml pins it)."""
 
 
+def control_loop_session_options():
+    """ONNX Runtime options for a policy run once per control period: one intra-op thread that does not spin."""
+    import onnxruntime as ort
+
+    options = ort.SessionOptions()
+    options.intra_op_num_threads = 1
+    options.inter_op_num_threads = 1
+    options.add_session_config_entry("session.intra_op.allow_spinning", "0")
+    return options
+
+
+def control_loop_session(path: str):
+    """An ONNX Runtime session of `path` (a policy.onnx) with `control_loop_session_options`, on the CPU."""
+    import onnxruntime as ort
+
+    return ort.InferenceSession(path, control_loop_session_options(), providers=["CPUExecutionProvider"])
+
+
 def _single_threaded_sessions(manager) -> dict:
     """Give each of the manager's ONNX nodes a session with one intra-op thread that does not spin; returns them by
     node name. Reads and sets
@@ -45,12 +63,9 @@ def _single_threaded_sessions(manager) -> dict:
         if not isinstance(program, SimplifiedONNXProgram):
             continue
         model_path = str(Path(program._source_dir) / program._source_filename)
-        options = ort.SessionOptions()
+        options = control_loop_session_options()
         program._load_warp_runtime(options, model_path)
         options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_BASIC  # as LEAPP: its note on ALL
-        options.intra_op_num_threads = 1
-        options.inter_op_num_threads = 1
-        options.add_session_config_entry("session.intra_op.allow_spinning", "0")
         session = ort.InferenceSession(model_path, options, providers=program._get_providers())
         program._session = session
         program._input_names = [i.name for i in session.get_inputs()]
@@ -108,3 +123,8 @@ class BundleRuntime:
         outputs = self.manager.run_policy(feeds)
         return {name: np.asarray(value, dtype=np.float64)[0] for name, value in outputs.items()
                 if name in (self.target_name, self.kp_name, self.kd_name)}
+
+    def targets_and_gains(self, raw: dict) -> tuple:
+        """(targets [rad] of `target_joints`, kp or None, kd or None): the bundle's outputs for `raw`."""
+        outputs = self.run(raw)
+        return outputs[self.target_name], outputs.get(self.kp_name), outputs.get(self.kd_name)

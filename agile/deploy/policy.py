@@ -4,10 +4,11 @@ order out. What the bundle reads comes from the robot's sensors only (joint enco
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
-from agile.deploy.robots import DeployBundle, RobotSpec
+from agile.deploy.robots import ExportedPolicy, RobotSpec
 from agile.deploy.mujoco_robot import rotate_inverse
 
 
@@ -43,18 +44,28 @@ def quat_from_rpy(roll: float, pitch: float, yaw: float) -> np.ndarray:
 
 
 class DeployPolicy:
-    """The bundle's graph (`BundleRuntime`, LEAPP's runtime) on RobotState: the joints a bundle does not drive are
-    held at their default positions with the robot config's gains; the driven ones get the bundle's targets and
-    gains."""
+    """An exported policy on RobotState: a LEAPP bundle (`BundleRuntime`, LEAPP's runtime) or an IO descriptor with
+    its policy file (`DescriptorRuntime`). The joints the policy does not drive are held at their default positions
+    with the robot config's gains; the driven ones get the policy's targets, and a bundle's gains where it outputs
+    them."""
 
-    def __init__(self, bundle: DeployBundle, robot: RobotSpec):
-        from agile.deploy.mujoco_policy import BundleRuntime
-
-        cfg = bundle.robot
+    def __init__(self, exported: ExportedPolicy, robot: RobotSpec):
+        cfg = exported.robot
         motor = {name: i for i, name in enumerate(robot.motor_joints)}
-        self.runtime = BundleRuntime(bundle.path)
-        self.runtime.check_joints(list(cfg["joint_names"]))
-        self.from_motor = np.array([motor[n] for n in cfg["joint_names"]])  # bundle joint i <- motor from_motor[i]
+        if exported.policy_file is None:
+            from agile.deploy.leapp_runtime import BundleRuntime
+
+            self.runtime = BundleRuntime(exported.path)
+            self.runtime.check_joints(list(cfg["joint_names"]))
+        else:
+            import yaml
+
+            from agile.deploy.leapp_runtime import control_loop_session
+            from agile.deploy.mujoco_policy import DescriptorRuntime
+
+            descriptor = yaml.safe_load(Path(exported.path).read_text())
+            self.runtime = DescriptorRuntime(descriptor, exported.policy_file, onnx_session_factory=control_loop_session)
+        self.from_motor = np.array([motor[n] for n in cfg["joint_names"]])  # policy joint i <- motor from_motor[i]
         self.target_ids = np.array([motor[n] for n in self.runtime.target_joints])
         self.default_q = np.zeros(len(robot.motor_joints))
         self.kp = np.zeros(len(robot.motor_joints))
@@ -74,11 +85,11 @@ class DeployPolicy:
 
     def __call__(self, state: RobotState, command: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Targets [rad], kp, kd, each in motor order."""
-        outputs = self.runtime.run(self.raw_inputs(state, command))
+        targets, policy_kp, policy_kd = self.runtime.targets_and_gains(self.raw_inputs(state, command))
         q, kp, kd = self.default_q.copy(), self.kp.copy(), self.kd.copy()
-        q[self.target_ids] = outputs[self.runtime.target_name]
-        if self.runtime.kp_name in outputs:
-            kp[self.target_ids] = outputs[self.runtime.kp_name]
-        if self.runtime.kd_name in outputs:
-            kd[self.target_ids] = outputs[self.runtime.kd_name]
+        q[self.target_ids] = targets
+        if policy_kp is not None:
+            kp[self.target_ids] = policy_kp
+        if policy_kd is not None:
+            kd[self.target_ids] = policy_kd
         return q, kp, kd

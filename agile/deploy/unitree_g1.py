@@ -152,6 +152,34 @@ class G1Link:
         self.publisher.Close()
 
 
+class VelocityTopic:
+    """A velocity command over DDS: `geometry_msgs/Twist` (linear.x, linear.y, angular.z = vx, vy, wz) on `topic`,
+    in the DDS type unitree_sdk2py ships for it (`geometry_msgs::msg::dds_::Twist_`, ROS 2's: a ROS 2 node's
+    `/cmd_vel` is the DDS topic `rt/cmd_vel`). Each message is handed to `on_velocity(vx, vy, wz)` from the
+    listener's thread. `publish` is the sender's side (a teleoperation script's, a test's)."""
+
+    def __init__(self, topic: str, on_velocity=None):
+        from unitree_sdk2py.core.channel import ChannelPublisher, ChannelSubscriber
+        from unitree_sdk2py.idl.geometry_msgs.msg.dds_ import Twist_
+
+        self.topic = topic
+        self.on_velocity = on_velocity
+        if on_velocity is None:
+            self.publisher = ChannelPublisher(topic, Twist_)
+            self.publisher.Init()
+        else:
+            self.subscriber = ChannelSubscriber(topic, Twist_)
+            self.subscriber.Init(self._on_message, 1)
+
+    def _on_message(self, msg) -> None:
+        self.on_velocity(float(msg.linear.x), float(msg.linear.y), float(msg.angular.z))
+
+    def publish(self, vx: float, vy: float, wz: float) -> None:
+        from unitree_sdk2py.idl.geometry_msgs.msg.dds_ import Twist_, Vector3_
+
+        self.publisher.Write(Twist_(Vector3_(float(vx), float(vy), 0.0), Vector3_(0.0, 0.0, float(wz))))
+
+
 @dataclass
 class MotorCommand:
     """One LowCmd_ as the motor drivers apply it, in motor order; `received_s` its arrival (time.monotonic())."""

@@ -21,6 +21,7 @@ import shutil
 
 import torch
 
+from agile.rl_env.io_descriptor_file import COMMAND_ELEMENTS
 from agile.utils.math import quat_rotate_inverse
 from agile.utils.output import quiet_python_output
 
@@ -34,7 +35,6 @@ RAW_INPUTS = {
     "command": (("generated_commands",), "command/body/velocity", None),
 }
 SUPPORTED_OBSERVATIONS = sorted({f for funcs, _, _ in RAW_INPUTS.values() for f in funcs} | {"last_action"})
-COMMAND_ELEMENTS = ["lin_vel_x", "lin_vel_y", "ang_vel_z", "base_height"]
 ROBOT_KEYS = ("robot_model_file", "enable_all_colliders", "physics_dt_s", "decimation", "control_dt_s", "solver",
               "joint_names", "default_joint_pos", "default_root_height_m", "stiffness", "damping", "effort_limit",
               "velocity_limit", "armature", "friction", "actuators", "clip_actions")
@@ -97,7 +97,7 @@ class DeployGraph(torch.nn.Module):
             elif name == "root_quat_w":
                 elements = ["qx", "qy", "qz", "qw"]
             elif name == "command":
-                elements = COMMAND_ELEMENTS[:self.command_dim]
+                elements = list(COMMAND_ELEMENTS[:self.command_dim])
                 connection = f"command:{self.command_name}"
             else:
                 elements = ["x", "y", "z"]

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import yaml
 
+COMMAND_ELEMENTS = ("lin_vel_x", "lin_vel_y", "ang_vel_z", "base_height")
+"""A velocity (and height) command's elements in order: a `generated_commands` term of dim n holds the first n."""
 IO_DESCRIPTOR_VERSION = 2  # 2: the "policy" section (model input/output names, recurrent hidden state)
 
 

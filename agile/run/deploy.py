@@ -1,9 +1,14 @@
-"""Run an exported policy (a LEAPP bundle) on a robot through its own SDK over DDS, with the safety state machine.
+"""Run an exported policy on a robot through its own SDK over DDS, with the safety state machine: a LEAPP bundle
+(--bundle), or the IO descriptor and policy file of `agile export` (--io, --policy).
 
     agile export --task Velocity-G1-History-v0 --format leapp --out exported/leapp
     agile sim_robot --robot g1 &                                    # or the real G1, in its debug mode
     agile deploy --bundle exported/leapp/Velocity-G1-History-v0/Velocity-G1-History-v0.yaml \\
         --interface lo --autostart --duration_s 20 --command 0.5 0 0
+
+The command: fixed (--command), typed (VX VY WZ [HEIGHT] + Enter), the G1's remote sticks (--remote), or a DDS topic
+of geometry_msgs/Twist (--command_topic rt/cmd_vel: ROS 2's /cmd_vel), always within the ranges the policy was
+trained on; a topic silent for --command_timeout_s leaves the robot standing.
 
 passive (zero torque) -> a timed move to the default pose -> hold -> policy -> damping. A start signal (Enter on the
 keyboard, the remote's start then A with --remote, or --autostart) moves on; a stop (the keyboard's d + Enter, the
@@ -32,19 +37,31 @@ from agile.run import arguments
 EXIT_FAULT = 1
 
 
-def keyboard(signals) -> None:
-    """Enter: start; d (or q) then Enter: stop. Read from stdin in a daemon thread."""
+def keyboard(signals, command) -> None:
+    """Enter: start; d (or q) then Enter: stop; VX VY WZ [HEIGHT] then Enter: the command. Read from stdin in a daemon
+    thread."""
+    from agile.deploy.commands import parse_keyboard_line
+
     for line in sys.stdin:
+        values = parse_keyboard_line(line)
         if line.strip().lower() in ("d", "q", "stop"):
             signals.stop = "the keyboard (stop)"
+        elif values is not None:
+            if not command.set(values, "the keyboard"):
+                print(f"[deploy] the keyboard: '{line.strip()}' refused (3 to {len(command.value)} finite values)",
+                      flush=True)
         else:
             signals.start = True
 
 
 def parse_args(argv):
     parser = arguments.new_parser(__doc__)
-    parser.add_argument("--bundle", required=True, metavar="TASK.yaml", help="a LEAPP bundle (agile export "
+    parser.add_argument("--bundle", default=None, metavar="TASK.yaml", help="a LEAPP bundle (agile export "
                         "--format leapp)")
+    parser.add_argument("--io", default=None, metavar="io_descriptor.yaml", help="an IO descriptor (agile export), "
+                        "with --policy")
+    parser.add_argument("--policy", default=None, metavar="policy.onnx", help="policy.onnx or policy.pt beside "
+                        "the IO descriptor (with --io)")
     parser.add_argument("--robot", default="g1", help="the robot: g1 (Unitree DDS) or t1 (Booster SDK)")
     parser.add_argument("--interface", required=True, help="the network interface on the robot's network (lo for "
                         "agile sim_robot)")
@@ -54,6 +71,11 @@ def parse_args(argv):
                         "the sticks set VX VY WZ)")
     parser.add_argument("--remote", action="store_true", help="the G1's wireless remote (in LowState_): start, A "
                         "and select buttons, the sticks as the velocity command")
+    parser.add_argument("--command_topic", default=None, metavar="TOPIC", help="a DDS topic of geometry_msgs/Twist "
+                        "(linear.x, linear.y, angular.z) as the velocity command, e.g. rt/cmd_vel (ROS 2's /cmd_vel); "
+                        "g1 only")
+    parser.add_argument("--command_timeout_s", type=float, default=0.5, help="the robot stands (zero velocity) while "
+                        "the command topic has been silent this long")
     parser.add_argument("--autostart", action="store_true", help="no start signal: move, hold, then the policy")
     parser.add_argument("--duration_s", type=float, default=None, help="seconds of policy, then damping (default: "
                         "until a stop)")
@@ -68,7 +90,9 @@ def parse_args(argv):
     parser.add_argument("--log", default=None, metavar="PATH.json",
                         help="write the transitions, the loop's latency and jitter, and counters as JSON")
     args = parser.parse_args(argv)  # not arguments.parse: it initialises Warp, unused here, before the input is checked
-    for name in ("damping_s", "move_duration_s", "first_state_timeout_s", "max_tilt_deg"):
+    if (args.bundle is None) == (args.io is None and args.policy is None) or (args.io is None) != (args.policy is None):
+        raise AgileError("give either --bundle, or --io and --policy (the exported policy to deploy)")
+    for name in ("damping_s", "move_duration_s", "first_state_timeout_s", "max_tilt_deg", "command_timeout_s"):
         if getattr(args, name) <= 0:
             raise AgileError(f"--{name} must be positive, got {getattr(args, name)}")
     for name in ("duration_s", "max_state_age_s"):
@@ -81,12 +105,25 @@ def parse_args(argv):
 
 def prepare(args):
     """Everything checked before DDS starts: the robot, the bundle, the interface, the command, the SDKs."""
-    from agile.deploy.robots import DeployError, read_deploy_bundle, robot_spec
+    from agile.deploy.robots import DeployError, read_deploy_bundle, read_deploy_descriptor, robot_spec
     from agile.deploy.unitree_g1 import check_interface
 
     try:
         spec = robot_spec(args.robot)
-        bundle = read_deploy_bundle(args.bundle, spec)
+    except DeployError as err:
+        raise AgileError(str(err)) from None
+    if args.remote and spec.name != "g1":
+        raise AgileError("--remote reads the G1's wireless remote in LowState_; the t1 has none in its SDK's LowState")
+    if args.command_topic is not None and spec.name != "g1":
+        raise AgileError("--command_topic is read over Unitree's DDS participant, which only the g1's link opens (the "
+                         "t1's Booster SDK has its own)")
+    if args.command_topic is not None and args.remote:
+        raise AgileError("--command_topic and --remote: give one velocity source")
+    try:
+        if args.bundle is not None:
+            bundle = read_deploy_bundle(args.bundle, spec)
+        else:
+            bundle = read_deploy_descriptor(args.io, args.policy, spec)
         check_interface(args.interface)
     except DeployError as err:
         raise AgileError(str(err)) from None
@@ -94,8 +131,6 @@ def prepare(args):
     if command.shape != (bundle.command_size,):
         raise AgileError(f"--command: {bundle.task} takes {bundle.command_size} values ({' '.join(bundle.command_elements)}), "
                  f"got {len(args.command)}")
-    if args.remote and spec.name != "g1":
-        raise AgileError("--remote reads the G1's wireless remote in LowState_; the t1 has none in its SDK's LowState")
     sdk = {"g1": "unitree_sdk2py", "t1": "booster_robotics_sdk_python"}[spec.name]
     try:
         __import__(sdk)
@@ -114,19 +149,19 @@ def default_command(bundle) -> np.ndarray:
     return command
 
 
-def command_source(args, bundle, command):
-    if not args.remote:
-        return lambda state: command
-    from agile.deploy.unitree_g1 import Remote
+def policy_command(args, bundle, command):
+    """The command the loop reads each period (agile.deploy.commands), its events printed as they happen."""
+    from agile.deploy.commands import PolicyCommand, command_ranges
 
-    ranges = next(iter(bundle.commands.values()))["ranges"]
-    limits = [max(abs(v) for v in ranges[k]) for k in ("lin_vel_x", "lin_vel_y", "ang_vel_z")]
+    lower, upper = command_ranges(bundle.commands, bundle.command_elements)
+    per_state = None
+    if args.remote:
+        from agile.deploy.unitree_g1 import Remote
 
-    def from_remote(state):
-        out = command.copy()
-        out[:3] = Remote.parse(state.remote).velocity_command(*limits)
-        return out
-    return from_remote
+        limits = [max(abs(lower[i]), abs(upper[i])) for i in range(3)]
+        per_state = lambda state: Remote.parse(state.remote).velocity_command(*limits)  # noqa: E731
+    return PolicyCommand(initial=command, lower=lower, upper=upper, stream_timeout_s=args.command_timeout_s,
+                         per_state=per_state, on_event=lambda e: print(f"[deploy] {e.text}", flush=True))
 
 
 def open_link(spec, args):
@@ -149,7 +184,11 @@ def main(argv=None) -> None:
     from agile.deploy.policy import DeployPolicy
     from agile.deploy.safety import SafetyLimits, SafetyStateMachine
 
+    import torch
+
+    torch.set_num_threads(1)  # a TorchScript policy runs once per period: an intra-op pool would only contend
     policy = DeployPolicy(bundle, spec)
+    command_input = policy_command(args, bundle, command)
     lower_q, upper_q = spec.joint_limits()
     limits = SafetyLimits(max_state_age_s=args.max_state_age_s or 3 * bundle.control_dt_s,
                           max_tilt_rad=float(np.radians(args.max_tilt_deg)), move_duration_s=args.move_duration_s)
@@ -167,13 +206,19 @@ def main(argv=None) -> None:
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
     if sys.stdin is not None and sys.stdin.isatty() and not args.autostart:
-        threading.Thread(target=keyboard, args=(signals,), daemon=True).start()
-        print("[deploy] Enter: start (passive -> move to default, hold -> policy); d + Enter: stop", flush=True)
+        threading.Thread(target=keyboard, args=(signals, command_input), daemon=True).start()
+        print("[deploy] Enter: start (passive -> move to default, hold -> policy); d + Enter: stop; VX VY WZ + Enter: "
+              "the command", flush=True)
     link = open_link(spec, args)
+    listeners = []  # kept for the whole run: a DDS subscription ends with its object
+    if args.command_topic is not None:
+        from agile.deploy.unitree_g1 import VelocityTopic
+
+        listeners.append(VelocityTopic(args.command_topic, command_input.set_velocity_stream))
     velocity_limit = np.zeros(len(spec.motor_joints))
     velocity_limit[policy.from_motor] = bundle.robot["velocity_limit"]
     controller = Controller(link=link, policy=policy, machine=machine, control_dt_s=bundle.control_dt_s,
-                            velocity_limit=velocity_limit, command_source=command_source(args, bundle, command),
+                            velocity_limit=velocity_limit, command_source=command_input,
                             signals=signals, dry_run=args.dry_run, remote_buttons=args.remote)
     gc.collect()
     gc.freeze()  # what exists now is never scanned again: no whole-heap collection in the middle of a period
@@ -191,7 +236,7 @@ def main(argv=None) -> None:
     print(f"[deploy] {result.commands_written} commands written; state-to-command latency "
           f"{fmt(timing.get('state_to_command_ms'))} ms", flush=True)
     if args.log:
-        write_log(args, bundle, result, timing, link, machine, command)
+        write_log(args, bundle, result, timing, link, machine, command_input)
     link.close()
     if machine.fault is not None:
         print(f"error: damping after a fault: {machine.fault}", file=sys.stderr)
@@ -227,11 +272,12 @@ def fmt(stats: dict | None) -> str:
     return f"p50 {stats['p50']:.2f}, p99 {stats['p99']:.2f}, max {stats['max']:.2f}"
 
 
-def write_log(args, bundle, result, timing, link, machine, command) -> None:
+def write_log(args, bundle, result, timing, link, machine, command_input) -> None:
     """Times are time.monotonic() seconds (one clock for every process of the machine: the simulator's samples
     use it too)."""
-    out = {"task": bundle.task, "bundle": args.bundle, "robot": args.robot, "interface": args.interface,
-           "domain_id": args.domain_id, "command": command.tolist(), "dry_run": args.dry_run,
+    out = {"task": bundle.task, "bundle": args.bundle, "io": args.io, "policy": args.policy, "robot": args.robot,
+           "interface": args.interface, "domain_id": args.domain_id, "command": command_input.summary(),
+           "command_topic": args.command_topic, "dry_run": args.dry_run,
            "control_dt_s": bundle.control_dt_s, "fault": machine.fault,
            "transitions": [{"time_s": t.time_s, "from": t.source.value, "to": t.target.value, "cause": t.cause,
                             "state_age_s": t.state_age_s} for t in result.transitions],
