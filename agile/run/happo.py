@@ -27,6 +27,21 @@ def build_runner(world, cfg, log_dir: str | None):
         raise AgileError(str(err)) from err
 
 
+def check_observation_groups(env_cfg, cfg) -> None:
+    """Refuse, before the world is built, an actor or critic group that some agent does not observe."""
+    import dataclasses
+
+    from agile.rl_env.managers import ObsGroup
+
+    for name, agent in env_cfg.agents.items():
+        groups = [f.name for f in dataclasses.fields(agent.observations)
+                  if isinstance(getattr(agent.observations, f.name), ObsGroup)]
+        for field in ("actor_group", "critic_group"):
+            if getattr(cfg, field) not in groups:
+                raise AgileError(f"agent.{field}={getattr(cfg, field)}: agent '{name}' has no such observation group; "
+                                 f"its groups: {', '.join(groups)}")
+
+
 def train(options):
     """`agile.run.train.train` with `options.trainer` "happo" (the task checked by `check_trainer`): a new run, its
     checkpoints in <log_root>/<experiment>/<time>_<run>/; a `TrainResult`."""
@@ -34,6 +49,7 @@ def train(options):
     from agile.run.train import TrainResult, run_configs
 
     env_cfg, cfg, device = run_configs(options)
+    check_observation_groups(env_cfg, cfg)
     world = make_world(options.task, env_cfg, device)
     log_dir = task_setup.new_log_dir(options.log_root, cfg.experiment_name, cfg.run_name)
     task_setup.dump_configs(log_dir, env_cfg, cfg)
