@@ -9,6 +9,7 @@
     agile train --task Velocity-Height-G1-Student-History-v0 \
         --init_policy agile/data/policy/Velocity-Height-G1-Student-History-v0.pt     # distil the shipped student on
     torchrun --standalone --nproc_per_node=2 scripts/train.py --task Velocity-T1-v0 --distributed   # 2 GPUs
+    agile train --task MultiRate-G1-T1-Velocity-v0 --trainer happo   # HARL's HAPPO (pip install 'agile[harl]')
 
 Checkpoints, tensorboard logs and the resolved configs go to logs/rsl_rl/<experiment>/<time>_<run>/ (with
 --distributed: rank 0's; every rank runs --num_envs envs on cuda:LOCAL_RANK with seed + rank).
