@@ -100,6 +100,9 @@ def load_task(*, task: str, num_envs: int | None = None, device: str | None = No
         raise AgileError(f"num_envs must be at least 1, got {num_envs}")
     if rnn not in (None, "lstm", "gru"):
         raise AgileError(f"rnn must be one of 'lstm', 'gru' (or None), got {rnn!r}")
+    trainers = ["rsl_rl", *agile.tasks.task_spec(task).trainer_cfgs]
+    if trainer not in trainers:
+        raise AgileError(f"trainer {trainer!r}: task {task} has a config for {', '.join(trainers)}")
     env_cfg, agent_cfg = agile.tasks.load_cfgs(task, trainer)
     device, fallback = resolve_device(device)
     if num_envs is not None:
