@@ -15,6 +15,18 @@ from agile.utils.config import ConfigError
 from agile.utils.heap import heap_frozen
 
 
+def rollout_physics_steps(world: MultiAgentEnv, rollout_s: float) -> int:
+    """Physics steps of a rollout of `rollout_s` simulated seconds; ConfigError unless a whole number of the schedule's
+    hyperperiods (a rollout starts and ends where every agent acts)."""
+    physics_dt = world.physics_dt_s
+    rollout_steps = round(rollout_s / physics_dt)
+    hyperperiod = world.schedule.hyperperiod_steps
+    if rollout_steps < 1 or abs(rollout_steps * physics_dt - rollout_s) > 1e-9 or rollout_steps % hyperperiod:
+        raise ConfigError(f"rollout_s={rollout_s} must be a whole number of hyperperiods of the schedule "
+                          f"({hyperperiod} physics steps = {hyperperiod * physics_dt:g} s)")
+    return rollout_steps
+
+
 class MultiAgentRunner:
     """One rsl-rl runner per group (its PPO, logger and checkpoints, in `<log_dir>/<group>/`); `learn` steps
     the world slot by slot, each group acting and storing its transitions at its own slots, and updates every
@@ -30,13 +42,8 @@ class MultiAgentRunner:
         if missing or twice:
             raise ConfigError(f"agent groups: every agent in exactly one group; not in any: {missing}, in several: "
                               f"{twice} (groups: { {n: list(g.agents) for n, g in cfg.groups.items()} })")
-        physics_dt = world.physics_dt_s
-        rollout_steps = round(cfg.rollout_s / physics_dt)
-        hyperperiod = world.schedule.hyperperiod_steps
-        if rollout_steps < 1 or abs(rollout_steps * physics_dt - cfg.rollout_s) > 1e-9 or rollout_steps % hyperperiod:
-            raise ConfigError(f"rollout_s={cfg.rollout_s} must be a whole number of hyperperiods of the schedule "
-                              f"({hyperperiod} physics steps = {hyperperiod * physics_dt:g} s)")
-        self.slots_per_rollout = rollout_steps // hyperperiod * len(world.schedule.slots)
+        rollout_steps = rollout_physics_steps(world, cfg.rollout_s)
+        self.slots_per_rollout = rollout_steps // world.schedule.hyperperiod_steps * len(world.schedule.slots)
         self.views: dict[str, GroupVecEnv] = {}
         self.runners: dict[str, CheckpointingRunner] = {}
         for name, group in cfg.groups.items():

@@ -73,6 +73,10 @@ def train(args, rank):
     from agile.rl.rsl_rl_adapter import set_git_status_repos
     from agile.utils.config import ConfigError
 
+    if args.trainer == "happo":
+        from agile.run import happo
+
+        return happo.train(args)
     check_train_args(args)
     if rank is not None:
         raise AgileError("--distributed trains single-agent tasks; a multi-agent task trains on one device")
@@ -219,18 +223,25 @@ def run_main(args, episodes: int | None, num_steps: int | None) -> dict:
     """eval.py (`episodes` per env) and play.py (`num_steps` steps of the world) for a multi-agent task."""
     from agile.run.recorders import VideoRecorder
 
+    from agile.run import happo
+
     run_dir = check_run_folder(args.checkpoint)
+    is_happo_run = happo.newest_checkpoint(run_dir) is not None  # else a run of per-group PPO learners
     env_cfg, agent_cfg, device = task_setup.load_task(**arguments.task_options(args))
     if getattr(args, "episode_length_s", None) is not None:
         env_cfg.episode_length_s = args.episode_length_s
-    run_checkpoints(run_dir, agent_cfg.groups)  # a missing group is reported before the build
+    if not is_happo_run:
+        run_checkpoints(run_dir, agent_cfg.groups)  # a missing group is reported before the build
     world = make_world(args.task, evaluation_cfg(env_cfg, getattr(args, "pushes", False)), device)
-    runner, files = restored_runner(world, agent_cfg, run_dir, args.trust_checkpoint)
-    policies = {view: runner.runners[g].get_inference_policy(device=str(world.device))
-                for g, view in runner.views.items()}
     recorders = [VideoRecorder(args.video, world)] if args.video else []
     num_slots = episode_slots(world, episodes) if episodes is not None else num_steps
-    metrics = evaluate(world, policies, num_slots, recorders)
+    if is_happo_run:
+        metrics, files = happo.evaluate_run(args, world, run_dir, num_slots, recorders)
+    else:
+        runner, files = restored_runner(world, agent_cfg, run_dir, args.trust_checkpoint)
+        policies = {view: runner.runners[g].get_inference_policy(device=str(world.device))
+                    for g, view in runner.views.items()}
+        metrics = evaluate(world, policies, num_slots, recorders)
     for recorder in recorders:
         recorder.close()
         print(f"[agile] video: {recorder.path}")

@@ -87,10 +87,11 @@ def resolve_device(requested: str | None) -> tuple[str, str | None]:
 
 
 def load_task(*, task: str, num_envs: int | None = None, device: str | None = None, seed: int | None = None,
-              rnn: str | None = None, overrides: typing.Sequence[str] = ()) -> TaskConfigs:
+              rnn: str | None = None, overrides: typing.Sequence[str] = (), trainer: str = "rsl_rl") -> TaskConfigs:
     """The task's env and agent configs with `overrides` ("env.<path>=<value>", "agent.<path>=<value>") applied and
     checked, and the device (cuda:0 when a GPU is present and `device` is None). `num_envs` None: the task's on a GPU,
-    `CPU_DEFAULT_NUM_ENVS` on a CPU. `rnn` ("lstm" or "gru"): a recurrent actor and critic, sized by the overrides."""
+    `CPU_DEFAULT_NUM_ENVS` on a CPU. `rnn` ("lstm" or "gru"): a recurrent actor and critic, sized by the overrides.
+    `trainer`: whose agent config (`agile.tasks.load_cfgs`)."""
     import agile.tasks
     from agile.rl import make_recurrent
     from agile.utils.config import apply_overrides
@@ -99,7 +100,10 @@ def load_task(*, task: str, num_envs: int | None = None, device: str | None = No
         raise AgileError(f"num_envs must be at least 1, got {num_envs}")
     if rnn not in (None, "lstm", "gru"):
         raise AgileError(f"rnn must be one of 'lstm', 'gru' (or None), got {rnn!r}")
-    env_cfg, agent_cfg = agile.tasks.load_cfgs(task)
+    trainers = ["rsl_rl", *agile.tasks.task_spec(task).trainer_cfgs]
+    if trainer not in trainers:
+        raise AgileError(f"trainer {trainer!r}: task {task} has a config for {', '.join(trainers)}")
+    env_cfg, agent_cfg = agile.tasks.load_cfgs(task, trainer)
     device, fallback = resolve_device(device)
     if num_envs is not None:
         env_cfg.num_envs = num_envs

@@ -9,6 +9,7 @@
     agile train --task Velocity-Height-G1-Student-History-v0 \
         --init_policy agile/data/policy/Velocity-Height-G1-Student-History-v0.pt     # distil the shipped student on
     torchrun --standalone --nproc_per_node=2 scripts/train.py --task Velocity-T1-v0 --distributed   # 2 GPUs
+    agile train --task MultiRate-G1-T1-Velocity-v0 --trainer happo   # HARL's HAPPO (pip install 'agile[harl]')
 
 Checkpoints, tensorboard logs and the resolved configs go to logs/rsl_rl/<experiment>/<time>_<run>/ (with
 --distributed: rank 0's; every rank runs --num_envs envs on cuda:LOCAL_RANK with seed + rank).
@@ -33,6 +34,9 @@ DEFAULT_LOG_ROOT = os.path.join("logs", "rsl_rl")
 PROGRESS_MODES = ("auto", "bar", "log")
 """`agile.rl.progress.PROGRESS_MODES`, named here so that --help does not import the simulator."""
 LOGGERS = ("tensorboard", "wandb", "neptune")
+TRAINERS = ("rsl_rl", "happo")
+"""rsl_rl: RSL-RL's PPO (per agent group on a multi-agent task); happo: HARL's HAPPO on a multi-agent task
+(`agile.marl.harl`, the extra agile[harl])."""
 MANY_CPU_ENVS = 256
 """Above this env count a CPU training is told that it is slow and how to make it fast."""
 
@@ -138,6 +142,7 @@ class TrainOptions:
     distributed: bool = False
     trust_checkpoint: bool = False
     collect_datasets_anew: bool = False
+    trainer: str = "rsl_rl"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -156,8 +161,9 @@ def train(*, task: str, num_envs: int | None = None, device: str | None = None, 
           video: bool = False, video_interval: int = 500, video_length: int = 200,
           inject_nan_actions: tuple | None = None, progress: str = "auto", full_log_every: int = 100,
           teacher: str | None = None, distributed: bool = False, trust_checkpoint: bool = False,
-          collect_datasets_anew: bool = False) -> TrainResult:
-    """Train `task` with RSL-RL (PPO, or distillation for a distilled task) and export the policy at the end.
+          collect_datasets_anew: bool = False, trainer: str = "rsl_rl") -> TrainResult:
+    """Train `task` with RSL-RL (PPO, or distillation for a distilled task) and export the policy at the end; a
+    multi-agent task with `trainer` "happo": HARL's HAPPO (`agile.run.happo`).
 
     The env and agent configs are the task's with `overrides` ("env.<path>=<value>", "agent.<path>=<value>"), `seed`,
     `rnn` ("lstm" | "gru") and `max_iterations` applied; `num_envs` None: the task's on a GPU, 4 on a CPU. A run starts
@@ -174,8 +180,9 @@ def train(*, task: str, num_envs: int | None = None, device: str | None = None, 
         init_action_std=init_action_std, logger=logger, run_name=run_name, log_root=log_root, video=video,
         video_interval=video_interval, video_length=video_length, inject_nan_actions=inject_nan_actions,
         progress=progress, full_log_every=full_log_every, teacher=teacher, distributed=distributed,
-        trust_checkpoint=trust_checkpoint, collect_datasets_anew=collect_datasets_anew)
+        trust_checkpoint=trust_checkpoint, collect_datasets_anew=collect_datasets_anew, trainer=trainer)
     check_options(options)
+    check_trainer(options)
     rank, rank_device = distributed_rank(options)
     return run_command("train", task, dataclasses.replace(options, device=rank_device), rank)
 
@@ -185,7 +192,7 @@ def run_configs(options: TrainOptions, rank=None) -> task_setup.TaskConfigs:
     fields applied and, on a distributed run, this rank's seed (the seed + the rank)."""
     env_cfg, agent_cfg, device = task_setup.load_task(task=options.task, num_envs=options.num_envs,
                                                       device=options.device, seed=options.seed, rnn=options.rnn,
-                                                      overrides=options.overrides)
+                                                      overrides=options.overrides, trainer=options.trainer)
     if rank is not None:
         env_cfg.seed += rank.rank
         agent_cfg.seed += rank.rank
@@ -210,6 +217,34 @@ def check_options(options: TrainOptions) -> None:
         if not (0.0 < share <= 1.0 and every >= 1 and every == int(every)):
             raise AgileError(f"inject_nan_actions (SHARE, EVERY): SHARE within (0, 1], EVERY a whole number >= 1; got "
                              f"{share:g} {every:g}")
+
+
+def check_trainer(options: TrainOptions) -> None:
+    """Refuse, before anything is built, a trainer that cannot train the task, is not installed, or an option it does
+    not take."""
+    import importlib.util
+
+    import agile.tasks
+
+    trainer = options.trainer
+    if trainer not in TRAINERS:
+        raise AgileError(f"--trainer must be one of {', '.join(TRAINERS)}, got {trainer!r}")
+    if trainer == "rsl_rl":
+        return
+    kind = agile.tasks.task_kind(options.task)
+    if kind != "multi_agent":
+        raise AgileError(f"--trainer {trainer}: needs a multi-agent task; {options.task} is {kind}")
+    trainers = agile.tasks.task_spec(options.task).trainer_cfgs
+    if trainer not in trainers:
+        raise AgileError(f"--trainer {trainer}: {options.task} has no {trainer} config (it trains with: "
+                         f"{', '.join(['rsl_rl', *trainers])})")
+    if importlib.util.find_spec("harl") is None:
+        raise AgileError(f"--trainer {trainer} needs HARL's HAPPO (the package harl-aht): pip install 'agile[harl]'")
+    given = [f"--{name}" for name in ("resume", "checkpoint", "init_policy", "init_action_std", "rnn", "video",
+                                      "teacher", "distributed", "inject_nan_actions") if getattr(options, name)]
+    if given:
+        raise AgileError(f"--trainer {trainer} trains a new run (--num_envs, --seed, --max_iterations, --log_root, "
+                         f"--run_name, agent.* overrides of its config); it does not take {', '.join(given)}")
 
 
 def build_runner(options: TrainOptions, env, agent_cfg, log_dir: str | None):
@@ -356,6 +391,9 @@ def build_parser():
     parser.add_argument("--distributed", action="store_true",
                         help="data-parallel over the processes torchrun starts (one per GPU; --device cpu: gloo on "
                         "CPU processes): each rank its own --num_envs envs and seed + rank, logs on rank 0")
+    parser.add_argument("--trainer", choices=TRAINERS, default="rsl_rl",
+                        help="rsl_rl: RSL-RL's PPO (a multi-agent task: per agent group); happo: HARL's HAPPO on a "
+                        "multi-agent task, one actor per agent and a centralised critic (pip install 'agile[harl]')")
     arguments.add_checkpoint_args(parser)
     return parser
 
@@ -369,7 +407,8 @@ def main(argv=None) -> None:
           run_name=args.run_name, log_root=args.log_root, video=args.video, video_interval=args.video_interval,
           video_length=args.video_length, inject_nan_actions=args.inject_nan_actions,
           progress=args.progress, full_log_every=args.full_log_every, teacher=args.teacher,
-          distributed=args.distributed, trust_checkpoint=args.trust_checkpoint, collect_datasets_anew=args.no_cache)
+          distributed=args.distributed, trust_checkpoint=args.trust_checkpoint, collect_datasets_anew=args.no_cache,
+          trainer=args.trainer)
 
 
 if __name__ == "__main__":

@@ -45,10 +45,12 @@ def task_kind(task: str) -> str:
     return task_spec(task).kind
 
 
-def load_cfgs(task: str):
-    """(env cfg, agent cfg) instances of a registered task."""
+def load_cfgs(task: str, trainer: str = "rsl_rl"):
+    """(env cfg, agent cfg) instances of a registered task; the agent cfg of `trainer` (one of the task spec's
+    `trainer_cfgs`, or "rsl_rl": its runner config)."""
     spec = task_spec(task)
-    return load_entry_point(spec.env_cfg_entry_point)(), load_entry_point(spec.runner_cfg_entry_point)()
+    runner_cfg = spec.runner_cfg_entry_point if trainer == "rsl_rl" else spec.trainer_cfgs[trainer]
+    return load_entry_point(spec.env_cfg_entry_point)(), load_entry_point(runner_cfg)()
 
 
 PRETRAINED_DIR = Path(__file__).resolve().parents[1] / "data" / "policy"

@@ -49,6 +49,9 @@ class TaskSpec:
     startup_dataset: str | None = None
     """"module:function" that has the env collect the dataset it builds at its start anew instead of loading the disk
     cache (`function(env_cfg)`; the commands' --no_cache); None: the task builds no dataset at its start."""
+    trainer_cfgs: dict = dataclasses.field(default_factory=dict)
+    """{trainer: "module:function" of its config}, the trainers besides RSL-RL the task trains with
+    (`agile train --trainer`, e.g. "happo" for a multi-agent task)."""
     single_agent_baselines: dict = dataclasses.field(default_factory=dict)
     """Multi-agent tasks: {agent group: (single-robot task, its overrides)} the benchmark compares the world with."""
     robot_type: str | None = None
@@ -69,6 +72,10 @@ class TaskSpec:
         if unknown:
             raise TaskSpecError(f"task {self.task}: eval_settings has no field {', '.join(unknown)}; its fields: "
                                 f"{', '.join(EVAL_SETTING_NAMES)}")
+        for trainer, entry_point in self.trainer_cfgs.items():
+            if not isinstance(entry_point, str) or ":" not in entry_point:
+                raise TaskSpecError(f"task {self.task}: trainer_cfgs[{trainer!r}] must be a 'module:function' string, "
+                                    f"got {entry_point!r}")
         for name in ("shipped_policy", "shipped_policy_per", "startup_dataset", "robot_type", "task_description"):
             value = getattr(self, name)
             if value is not None and not isinstance(value, str):

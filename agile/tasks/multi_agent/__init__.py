@@ -9,6 +9,7 @@ FLAT_NO_RANDOMISATION = ("env.scene.terrain=null", "env.curriculum.terrain_level
 register_task(
     "MultiRate-G1-T1-Velocity-v0", f"{__name__}.multi_rate_velocity_env_cfg:MultiRateG1T1VelocityEnvCfg",
     f"{__name__}.agents.rsl_rl_cfg:multi_rate_velocity_runner_cfg", env_class=MULTI_AGENT_ENV, kind="multi_agent",
+    trainer_cfgs={"happo": f"{__name__}.agents.happo_cfg:multi_rate_velocity_happo_cfg"},
     # the single-robot tasks whose MDPs the agents reuse, in the agents' conditions and rates
     # (scripts/benchmark.py compares the world's step with the sum of theirs)
     single_agent_baselines={
