@@ -13,6 +13,7 @@ SMOKE_TASKS = ["Velocity-T1-v0", "Velocity-G1-History-v0", "Velocity-G1-Teacher-
 SMOKE_TASKS += ["MotionTracking-G1-v0"]
 SMOKE_TASKS += ["PickPlace-G1-v0", "PickPlace-G1-Debug-v0", "PickPlace-G1-Record-v0"]
 SMOKE_TASKS += ["StandUp-T1-v0", "HeightTracking-G1-v0"]  # gym.make collects their fallen-state datasets
+SMOKE_TASKS += ["Velocity-Go1-v0", "Velocity-Flat-Go1-v0"]
 MULTI_AGENT_SMOKE_TASKS = ["MultiRate-G1-T1-Velocity-v0"]
 DISTILLED = "distilled from a teacher: tests/test_distillation.py builds, steps, trains and exports it"
 FINETUNED = "PPO on a distilled student: tests/test_distillation.py trains it from the shipped student and exports it"
