@@ -23,7 +23,7 @@ def pose_args(pose: dict[str, float]) -> list[str]:
 
 
 @pytest.mark.parametrize("model_file, pose, classes, feet, height_m", [
-    (GO1_MODEL_FILE, GO1_POSE, GO1_COLLIDER_CLASSES, ["FL_calf", "FR_calf", "RL_calf", "RR_calf"], 0.28),
+    (GO1_MODEL_FILE, GO1_POSE, GO1_COLLIDER_CLASSES, ["FL_calf", "FR_calf", "RL_calf", "RR_calf"], 0.30),
     (asset_file("unitree_g1/g1_mjx.xml"), G1_POSE, ("collision", "foot_box", "foot_capsule"),
      ["left_ankle_roll_link", "right_ankle_roll_link"], 0.76),
     (asset_file("booster_t1/t1.xml"), T1_POSE, ("collision",), ["left_foot_link", "right_foot_link"], 0.68),

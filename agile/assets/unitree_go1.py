@@ -27,9 +27,10 @@ FOOT_BODIES = ["FL_calf", "FR_calf", "RL_calf", "RR_calf"]
 THIGH_BODIES = ["FL_thigh", "FR_thigh", "RL_thigh", "RR_thigh"]
 
 # mjlab `go1_constants.INIT_STATE`: the Menagerie "home" crouch (thigh 0.9, calf -1.8 rad) with the legs splayed
-# 0.1 rad outwards. `agile robot check` puts the feet on the ground with the trunk at 0.28 m.
+# 0.1 rad outwards. mjlab spawns it at 0.278 m; `agile robot check` puts the feet of this model on flat ground with
+# the trunk at 0.2945 m, so it spawns 5 mm above (at 0.278 m its feet would start 1.6 cm inside the ground).
 INIT_JOINT_POS = {".*_thigh_joint": 0.9, ".*_calf_joint": -1.8, ".*R_hip_joint": 0.1, ".*L_hip_joint": -0.1}
-INIT_HEIGHT_M = 0.278
+INIT_HEIGHT_M = 0.30
 
 # Motors (mjlab, from Unitree's URDF): rotor inertia about its axis and the gearboxes, reflected at the joint as
 # J·N²; effort and speed limits of the hip and knee motors.
