@@ -67,6 +67,8 @@ def go1_robot_cfg(actuators: dict | None = None) -> ArticulationCfg:
         init_pos_m=(0.0, 0.0, INIT_HEIGHT_M),
         init_joint_pos=dict(INIT_JOINT_POS),
         mjcf_collider_classes=GO1_COLLIDER_CLASSES,
+        # the file's 1 mm: on flat ground Newton zeroes it with a warning per collider (42), the same 0 on any ground
+        collider_margin_m=0.0,
         actuators=go1_implicit_actuators() if actuators is None else actuators,
         soft_joint_pos_limit_factor=SOFT_JOINT_POS_LIMIT_FACTOR,
     )
