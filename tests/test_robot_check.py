@@ -124,3 +124,27 @@ def test_unreadable_model_is_exit_2(tmp_path):
     path.write_text("<mujoco><worldbody><body name='a'>")
     code, out, err = agile("robot", "check", str(path))
     assert code == 2 and "Newton could not import" in err and len(err.strip().splitlines()) == 1, err
+
+
+URDF_PROBE = """<robot name="probe">
+  <link name="base"><inertial><mass value="5"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><box size="0.4 0.2 0.1"/></geometry></collision></link>
+  <link name="leg"><inertial><origin xyz="0 0 -0.1"/><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 -0.15"/><geometry><cylinder radius="0.03" length="0.3"/></geometry></collision></link>
+  <joint name="hip" type="revolute"><parent link="base"/><child link="leg"/><origin xyz="0 0.15 -0.05"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="20" velocity="10"/></joint>
+  <link name="leg2"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="spin" type="continuous"><parent link="base"/><child link="leg2"/><axis xyz="0 0 1"/></joint>
+</robot>
+"""
+
+
+def test_urdf_through_newtons_importer(tmp_path):
+    """A URDF's continuous joint has neither position nor effort limits: both named; its limited joint is not."""
+    path = tmp_path / "probe.urdf"
+    path.write_text(URDF_PROBE)
+    code, out, err = agile("robot", "check", str(path))
+    assert code == 1, out + err
+    problems = [line.strip().removeprefix("problem: ") for line in out.splitlines() if "problem:" in line]
+    assert [p.split(":")[0] for p in problems] == ["joint spin", "actuator spin"], out
+    assert "hip   [-1, 1]  0  20  10  0" in out and "feet candidates (colliders within 0.02 m of the lowest point): leg" in out
