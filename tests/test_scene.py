@@ -285,3 +285,26 @@ def test_model_file_object_keeps_the_files_shape_and_mass(tmp_path):
     sim.step(200)
     sim.scene.update()
     assert crate.root_pos_w[:, 2].tolist() == pytest.approx([0.05] * NUM_ENVS, abs=3e-3)
+
+
+def test_collider_margin_is_set_on_every_collider_and_a_negative_one_refused():
+    """Go1's file has 1 mm margins (which Newton zeroes, warning per geom, under MuJoCo's own contacts): the robot
+    definition's margin replaces them on every collider; None keeps the file's."""
+    import dataclasses
+
+    import newton
+
+    from agile.assets.unitree_go1 import go1_robot_cfg
+    from agile.sim.entities.model_import import build_articulation
+
+    def collider_margins(cfg) -> list[float]:
+        builder, _, _ = build_articulation(cfg, -9.81)
+        collide = int(newton.ShapeFlags.COLLIDE_SHAPES)
+        return [builder.shape_margin[i] for i in range(builder.shape_count) if builder.shape_flags[i] & collide]
+
+    cfg = go1_robot_cfg()
+    assert set(collider_margins(dataclasses.replace(cfg, collider_margin_m=0.002))) == {0.002}
+    kept = collider_margins(dataclasses.replace(cfg, collider_margin_m=None))
+    assert len(kept) == 42 and all(abs(m - 0.001) < 1e-9 for m in kept)
+    with pytest.raises(ValueError, match="collider_margin_m must be >= 0"):
+        collider_margins(dataclasses.replace(cfg, collider_margin_m=-0.001))

@@ -6,10 +6,10 @@ import torch
 from tensordict import TensorDict
 
 import agile.tasks  # noqa: F401
-from agile.rl_env.mdp.symmetry import _swap_side, group_mirror, lr_mirror
+from agile.rl_env.mdp.symmetry import _swap_side, body_mirror, group_mirror, lr_mirror, mirror_name
 from agile.rl import flatten_groups
 
-TASKS = ["Velocity-T1-v0", "Velocity-G1-History-v0"]
+TASKS = ["Velocity-T1-v0", "Velocity-G1-History-v0", "Velocity-Flat-Go1-v0"]
 
 
 @pytest.fixture(scope="module", params=TASKS)
@@ -26,6 +26,16 @@ def test_side_swap():
     assert _swap_side("Left_Hip_Roll") == "Right_Hip_Roll"
     assert _swap_side("right_wrist_yaw_joint") == "left_wrist_yaw_joint"
     assert _swap_side("waist_yaw_joint") == "waist_yaw_joint"
+
+
+def test_quadruped_leg_prefixes_and_side_letters():
+    """A quadruped's legs (Unitree's FL_/FR_/RL_/RR_) and T1's arm links (AL1/AR1) pair up; names without a side
+    are their own mirror."""
+    assert [mirror_name(n) for n in ("FL_hip_joint", "FR_calf", "RL_thigh_joint", "RR_calf", "HL_foot")] == \
+        ["FR_hip_joint", "FL_calf", "RR_thigh_joint", "RL_calf", "HR_foot"]
+    assert [mirror_name(n) for n in ("AL1", "AR3", "left_knee_joint", "trunk", "Waist", "FRONT_camera")] == \
+        ["AR1", "AL3", "right_knee_joint", "trunk", "Waist", "FRONT_camera"]
+    assert body_mirror(["trunk", "FR_calf", "FL_calf", "RR_calf", "RL_calf"]) == [0, 2, 1, 4, 3]
 
 
 def test_mirroring_twice_is_the_identity(env):

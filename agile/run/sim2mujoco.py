@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -85,9 +86,12 @@ def run(descriptor: dict, mjcf: str, make_policy, episodes: int, duration_s: flo
 
 def default_mjcf(descriptor: dict) -> str:
     from agile.assets import asset_file
+    from agile.assets.unitree_go1 import GO1_MODEL_FILE
 
     robots = {"t1.xml": "booster_t1/t1.xml", "g1_mjx.xml": "unitree_g1/g1_mjx.xml", "g1.xml": "unitree_g1/g1.xml"}
     name = descriptor["robot_model_file"]
+    if name == os.path.basename(GO1_MODEL_FILE):  # shipped inside agile, not in the humanoid asset package
+        return GO1_MODEL_FILE
     if name not in robots:
         raise AgileError(f"pass --mjcf for robot file '{name}'")
     return asset_file(robots[name])

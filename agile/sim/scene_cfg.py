@@ -46,6 +46,9 @@ class ArticulationCfg:
     `collision`), or their geoms are dropped with the visuals."""
     contact_dim: int | None = 3
     """MuJoCo `condim` for every collider (3 = friction cone); None keeps the file's."""
+    collider_margin_m: float | None = None
+    """Contact margin of every collider [m]; None keeps the file's. On flat ground (MuJoCo's own contacts) Newton
+    zeroes a file's nonzero margin with one warning per geom; 0 there is what the solver uses anyway."""
     self_collisions: bool = False
     parse_visuals: bool = False
     """Visual meshes are only needed for rendering; headless training skips them."""

@@ -8,7 +8,7 @@ import gymnasium as gym
 import yaml
 
 from agile.tasks import debug  # noqa: F401  (registration side effect)
-from agile.tasks.velocity import g1, t1  # noqa: F401  (registration side effect)
+from agile.tasks.velocity import g1, go1, t1  # noqa: F401  (registration side effect)
 from agile.tasks.velocity_height import g1 as height_g1  # noqa: F401  (registration side effect)
 from agile.tasks.stand_up import t1 as stand_up_t1  # noqa: F401  (registration side effect)
 from agile.tasks.height_tracking import g1 as height_tracking_g1  # noqa: F401  (registration side effect)

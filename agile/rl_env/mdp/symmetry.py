@@ -1,7 +1,8 @@
 """Left-right mirroring of observations and actions, for RSL-RL's symmetry augmentation.
 
 Everything is derived from the robot and the observation terms, not from term names:
-- joints pair up by swapping "left"/"right" (any case) in their names; a joint turning about its x or z axis
+- joints and bodies pair up by swapping "left"/"right" (any case) in their names, else a quadruped's leg prefix
+  (FL_ <-> FR_, RL_ <-> RR_, HL_ <-> HR_), else a side letter (T1's AL1 <-> AR1); a joint turning about its x or z axis
   (roll, yaw) changes sign, one turning about y (pitch) does not;
 - an observation term is mirrored by what its function returns: polar vectors (linear velocity, gravity)
   flip y, pseudo-vectors (angular velocity) flip x and z, velocity commands flip vy and wz, joint terms and
@@ -26,7 +27,7 @@ from agile.rl_env.managers.manager_base import collect_terms
 from agile.rl_env.mdp import observations as obs_terms
 
 __all__ = ["GroupMirror", "body_mirror", "feet_scan_mirror", "group_mirror", "joint_mirror", "lr_mirror",
-           "mirror_within"]
+           "mirror_name", "mirror_within"]
 
 POLAR_VECTOR = [1.0, -1.0, 1.0]
 PSEUDO_VECTOR = [-1.0, 1.0, -1.0]
@@ -45,17 +46,31 @@ def _swap_side(name: str) -> str:
 
 _SIDE_LETTER = re.compile(r"(?<=[A-Z])([LR])(?=\d)")
 """A side as one capital letter between a capital and a digit: T1's arm links AL1..AL3 / AR1..AR3."""
+_LEG_PREFIX = re.compile(r"^([FRH])([LR])(?=_)")
+"""A quadruped's leg as a prefix, front/rear (or hind) then left/right: Unitree's FL_hip_joint, RR_calf."""
+
+
+def _other_letter(m: re.Match) -> str:
+    return m.group(0)[:-1] + ("R" if m.group(0)[-1] == "L" else "L")
+
+
+def mirror_name(name: str) -> str:
+    """The name of the mirror joint or body: "left"/"right" swapped, else a leg prefix (FL_ <-> FR_), else a side
+    letter (AL1 <-> AR1); a name with none of them is its own mirror (trunk, waist)."""
+    for rule in (_swap_side, lambda n: _LEG_PREFIX.sub(_other_letter, n), lambda n: _SIDE_LETTER.sub(_other_letter, n)):
+        partner = rule(name)
+        if partner != name:
+            return partner
+    return name
 
 
 def body_mirror(body_names: list[str]) -> list[int]:
-    """The partner index of each body: "left"/"right" swapped in its name, else a side letter (AL1 <-> AR1); a body
-    with neither is its own partner (trunk, head, waist)."""
+    """The partner index of each body (`mirror_name`); a body without a side is its own partner (trunk, head,
+    waist)."""
     index = {n: i for i, n in enumerate(body_names)}
     perm = []
     for name in body_names:
-        partner = _swap_side(name)
-        if partner == name:
-            partner = _SIDE_LETTER.sub(lambda m: "R" if m.group(1) == "L" else "L", name)
+        partner = mirror_name(name)
         if partner not in index:
             raise ValueError(f"body '{name}' has no mirror body '{partner}'. Bodies: {body_names}")
         perm.append(index[partner])
@@ -67,7 +82,7 @@ def joint_mirror(joint_names: list[str], joint_axes: np.ndarray) -> tuple[list[i
     index = {n: i for i, n in enumerate(joint_names)}
     perm, sign = [], []
     for name, axis in zip(joint_names, joint_axes):
-        partner = _swap_side(name)
+        partner = mirror_name(name)
         if partner not in index:
             raise ValueError(f"joint '{name}' has no mirror joint '{partner}'. Joints: {joint_names}")
         perm.append(index[partner])

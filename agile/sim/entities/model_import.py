@@ -102,6 +102,11 @@ def build_articulation(cfg: ArticulationCfg, gravity_mps2: float) -> tuple[newto
     if cfg.contact_dim is not None and "mujoco:condim" in attrs:
         for i in colliders:
             attrs["mujoco:condim"].values[i] = cfg.contact_dim
+    if cfg.collider_margin_m is not None:
+        if cfg.collider_margin_m < 0.0:
+            raise ValueError(f"collider_margin_m must be >= 0 (or None for the file's), got {cfg.collider_margin_m}")
+        for i in colliders:
+            builder.shape_margin[i] = cfg.collider_margin_m
 
     joint_names = dof_names(builder)
     body_names = [short_name(label) for label in builder.body_label]

@@ -17,3 +17,9 @@ register_task(
         "t1": ("Velocity-T1-v0", [*FLAT_NO_RANDOMISATION, "env.actions.random_pos=null", "env.decimation=8"]),
     },
 )
+
+register_task(
+    "Shared-Go1-Velocity-v0", f"{__name__}.shared_go1_velocity_env_cfg:SharedGo1VelocityEnvCfg",
+    f"{__name__}.agents.rsl_rl_cfg:shared_go1_velocity_runner_cfg", env_class=MULTI_AGENT_ENV, kind="multi_agent",
+    single_agent_baselines={"go1_a": ("Velocity-Flat-Go1-v0", []), "go1_b": ("Velocity-Flat-Go1-v0", [])},
+)

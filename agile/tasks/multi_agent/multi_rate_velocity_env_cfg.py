@@ -14,13 +14,12 @@ import dataclasses
 from agile.assets.booster_t1 import t1_robot_cfg
 from agile.assets.unitree_g1 import g1_robot_cfg
 from agile.marl import AgentCfg, MultiAgentEnvCfg
-from agile.rl_env.managers import RewTerm, SceneEntityCfg
 from agile.sim import ContactSensorCfg, HeightScannerCfg, SceneCfg
-from agile.tasks.velocity import mdp
+from agile.tasks.multi_agent.velocity_agents import touch_penalty, velocity_scene_names
 from agile.tasks.velocity.g1 import velocity_history_env_cfg as g1_task
 from agile.tasks.velocity.t1 import velocity_env_cfg as t1_task
-from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, uniform_root_reset,
-                                                   velocity_events_cfg, velocity_sim_cfg, velocity_terminations_cfg)
+from agile.tasks.velocity.velocity_common import (uniform_root_reset, velocity_events_cfg, velocity_sim_cfg,
+                                                   velocity_terminations_cfg)
 from agile.utils.config import configclass
 
 SPAWN_OFFSET_Y_M = 1.0
@@ -48,12 +47,6 @@ SCENE = SceneCfg(
 )
 
 
-def touch_penalty() -> RewTerm:
-    """-1 per second while the two robots touch (either agent pays it)."""
-    return RewTerm(func=mdp.filtered_contact, weight=-1.0,
-                   params={"sensor_cfg": SceneEntityCfg(TOUCH_SENSOR), "force_threshold_n": 1.0})
-
-
 def velocity_agent_cfg(task, entity: str, decimation: int, rewards, base_body: str,
                        trunk_bodies: list[str]) -> AgentCfg:
     """The velocity task `task` (its module) as an agent driving `entity` every `decimation` physics steps: its
@@ -64,8 +57,7 @@ def velocity_agent_cfg(task, entity: str, decimation: int, rewards, base_body: s
                                  reset_base=uniform_root_reset(xy_range_m=RESET_XY_RANGE_M))
     return AgentCfg(
         decimation=decimation,
-        scene_names={"robot": entity, CONTACT_SENSOR: f"{entity}_contact_forces",
-                     BASE_HEIGHT_SENSOR: f"{entity}_base_height"},
+        scene_names=velocity_scene_names(entity),
         commands=task.CommandsCfg(), actions=dataclasses.replace(task.ActionsCfg(), random_pos=None), observations=task.ObservationsCfg(), rewards=rewards,
         terminations=velocity_terminations_cfg(task.BASE_HEIGHT_TARGET_M, trunk_bodies=trunk_bodies),
         events=events)
@@ -74,7 +66,7 @@ def velocity_agent_cfg(task, entity: str, decimation: int, rewards, base_body: s
 # -- the G1 agent: 50 Hz, Velocity-G1-History-v0's MDP
 @configclass
 class G1RewardsCfg(g1_task.RewardsCfg):
-    touch_other_robot = touch_penalty()
+    touch_other_robot = touch_penalty(TOUCH_SENSOR)  # either agent pays it
 
 
 def g1_agent_cfg() -> AgentCfg:
@@ -85,7 +77,7 @@ def g1_agent_cfg() -> AgentCfg:
 # -- the T1 agent: 25 Hz, Velocity-T1-v0's MDP
 @configclass
 class T1RewardsCfg(t1_task.RewardsCfg):
-    touch_other_robot = touch_penalty()
+    touch_other_robot = touch_penalty(TOUCH_SENSOR)  # either agent pays it
 
 
 def t1_agent_cfg() -> AgentCfg:

@@ -238,23 +238,26 @@ class VelocityTerminationsCfg:
     illegal_base_height: DoneTerm | None = None
 
 
-def velocity_terminations_cfg(base_height_target_m: float, trunk_bodies: list[str]) -> VelocityTerminationsCfg:
-    """Time-out; root tilted beyond 30°; a trunk body pushing on something (> 20 N) while one of them is below
-    0.45 m; root more than 0.3 m below its target height above the terrain."""
+def velocity_terminations_cfg(base_height_target_m: float, trunk_bodies: list[str], *, max_tilt_deg: float = 30.0,
+                              contact_min_height_m: float = 0.45,
+                              height_margin_m: float = 0.3) -> VelocityTerminationsCfg:
+    """Time-out; root tilted beyond `max_tilt_deg`; a trunk body pushing on something (> 20 N) while one of them is
+    below `contact_min_height_m`; root more than `height_margin_m` below its target height above the terrain.
+    The defaults are the humanoids' (AGILE); a quadruped, whose trunk is always low, passes its own."""
     # orientation on the root, as in AGILE (its configs name Trunk / torso_link, but Isaac Lab's bad_orientation
     # reads the root): on G1 a torso limit (the torso tilts with the waist joints) ended 100% of the early
     # episodes and collapsed the policy's action noise (measured at iteration 50)
     return VelocityTerminationsCfg(
         time_out=DoneTerm(func=mdp.time_out, time_out=True),
-        bad_orientation=DoneTerm(func=mdp.bad_orientation, params={"limit_angle_rad": math.radians(30.0)}),
+        bad_orientation=DoneTerm(func=mdp.bad_orientation, params={"limit_angle_rad": math.radians(max_tilt_deg)}),
         illegal_ground_contact=DoneTerm(
             func=mdp.illegal_ground_contact,
-            params={"force_threshold_n": 20.0, "min_height_m": 0.45,
+            params={"force_threshold_n": 20.0, "min_height_m": contact_min_height_m,
                     "sensor_cfg": SceneEntityCfg(CONTACT_SENSOR, body_names=trunk_bodies),
                     "asset_cfg": SceneEntityCfg("robot", body_names=trunk_bodies)}),
         illegal_base_height=DoneTerm(
             func=mdp.root_height_below_minimum,
-            params={"minimum_height_m": base_height_target_m - 0.3, "sensor_name": BASE_HEIGHT_SENSOR}))
+            params={"minimum_height_m": base_height_target_m - height_margin_m, "sensor_name": BASE_HEIGHT_SENSOR}))
 
 
 @configclass

@@ -1,0 +1,72 @@
+"""Shared-Go1-Velocity-v0: two Unitree Go1s walk side by side in every env, each following its own velocity command,
+both driven by one policy (a `shared` agent group: their samples batched into one PPO), without touching each other.
+
+The multi-robot system's SHARED example (two Go2s through one policy), with the Go1. Each agent's MDP is
+Velocity-Flat-Go1-v0's (commands, actions, observations, rewards, terminations, events with its domain randomisation)
+term for term, written for "robot" and mapped onto its Go1 by `scene_names`; added: the penalty for touching the
+other robot. Resets stay within ±0.3 m of the spawn points, so the robots never start inside each other. The single
+task's curriculum (the action-rate weights' ramps) does not run here: the agents keep its initial weights.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from agile.assets.unitree_go1 import go1_robot_cfg
+from agile.marl import AgentCfg, MultiAgentEnvCfg
+from agile.sim import ContactSensorCfg, SceneCfg
+from agile.tasks.multi_agent.velocity_agents import touch_penalty, velocity_scene_names
+from agile.tasks.velocity.go1 import velocity_env_cfg as go1_task
+from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, uniform_root_reset,
+                                                  velocity_sim_cfg)
+from agile.utils.config import configclass
+
+ROBOTS = ("go1_a", "go1_b")
+SPAWN_OFFSET_Y_M = 0.75
+"""Each robot spawns this far from the env origin, go1_a to the right (-y), go1_b to the left (a Go1 is 0.3 m wide)."""
+RESET_XY_RANGE_M = 0.3
+TOUCH_SENSOR = "go1_a_touches_go1_b"
+SINGLE = go1_task.go1_flat_velocity_env_cfg()
+"""The single-robot task whose MDP each agent runs."""
+
+
+def go1_at(y_m: float):
+    robot = go1_robot_cfg()
+    return dataclasses.replace(robot, init_pos_m=(0.0, y_m, robot.init_pos_m[2]))
+
+
+# -- scene: both robots in every env on flat ground, each with the single task's sensors, and a sensor of their contact
+SCENE = SceneCfg(
+    entities={"go1_a": go1_at(-SPAWN_OFFSET_Y_M), "go1_b": go1_at(SPAWN_OFFSET_Y_M)},
+    terrain=None, env_spacing_m=4.0, ground_friction=SINGLE.scene.ground_friction,
+    contact_sensors={
+        **{f"{name}_contact_forces": dataclasses.replace(SINGLE.scene.contact_sensors[CONTACT_SENSOR], entity=name)
+           for name in ROBOTS},
+        TOUCH_SENSOR: ContactSensorCfg(entity="go1_a", filter_entity="go1_b", history_length=1, track_air_time=False),
+    },
+    height_scanners={f"{name}_base_height": dataclasses.replace(SINGLE.scene.height_scanners[BASE_HEIGHT_SENSOR],
+                                                                entity=name) for name in ROBOTS},
+)
+
+
+@configclass
+class RewardsCfg(go1_task.RewardsCfg):
+    touch_other_robot = touch_penalty(TOUCH_SENSOR)  # both agents pay it
+
+
+def go1_agent_cfg(entity: str) -> AgentCfg:
+    """Velocity-Flat-Go1-v0's MDP driving `entity` at its 50 Hz."""
+    return AgentCfg(
+        decimation=SINGLE.decimation, scene_names=velocity_scene_names(entity),
+        commands=go1_task.CommandsCfg(), actions=go1_task.ActionsCfg(), observations=go1_task.ObservationsCfg(),
+        rewards=RewardsCfg(), terminations=SINGLE.terminations,
+        events=dataclasses.replace(SINGLE.events, reset_base=uniform_root_reset(xy_range_m=RESET_XY_RANGE_M)))
+
+
+@configclass
+class SharedGo1VelocityEnvCfg(MultiAgentEnvCfg):
+    num_envs = 4096
+    episode_length_s = SINGLE.episode_length_s
+    scene = SCENE
+    sim = velocity_sim_cfg(max_contacts_per_world=2 * SINGLE.sim.solver.nconmax)  # the single task's, per robot
+    agents = {"go1_a": go1_agent_cfg("go1_a"), "go1_b": go1_agent_cfg("go1_b")}

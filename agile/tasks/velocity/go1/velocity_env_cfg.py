@@ -1,0 +1,109 @@
+"""Velocity-Go1-v0: Unitree Go1 walks at commanded planar velocities on rough terrain, controlling its 12 joints;
+Velocity-Flat-Go1-v0: the same on flat ground.
+
+The velocity family's blocks with a quadruped's bodies: Isaac Lab's rough terrain (stairs, boxes, slopes, noise) with
+the terrain curriculum, the velocity tasks' domain randomisation, pushes and resets; rewards after Isaac Lab's and
+mjlab's Go1 velocity tasks (tracking, base motion, joint effort, a foot air-time bonus, thigh and trunk contacts).
+The weights are a first set, not yet tuned by a GPU training.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from agile.assets.unitree_go1 import (ACTION_SCALE, BASE_BODY, FOOT_BODIES, LEG_JOINTS, THIGH_BODIES,
+                                      go1_robot_cfg)
+from agile.rl_env import ManagerBasedRLEnvCfg
+from agile.rl_env.managers import RewTerm, SceneEntityCfg
+from agile.sim.terrain import ROUGH_TERRAINS_CFG
+from agile.tasks.velocity import mdp
+from agile.tasks.velocity.velocity_common import (CONTACT_SENSOR, VelocityCriticObsCfg,
+                                                  uniform_root_reset, velocity_command_cfg, velocity_curriculum_cfg,
+                                                  velocity_events_cfg, velocity_policy_obs_cfg, velocity_scene_cfg,
+                                                  velocity_sim_cfg, velocity_terminations_cfg)
+from agile.utils.config import configclass
+
+LEGS = SceneEntityCfg("robot", joint_names=LEG_JOINTS)
+FEET = SceneEntityCfg("robot", body_names=FOOT_BODIES, preserve_order=True)
+FEET_CONTACT = SceneEntityCfg(CONTACT_SENSOR, body_names=FOOT_BODIES, preserve_order=True)
+BASE_HEIGHT_TARGET_M = 0.28
+"""The trunk's height standing in the default crouch (`agile robot check`: 0.28 m)."""
+
+# -- scene: the robot alone on the terrain, with the contact sensor and the base-height ray
+SCENE = velocity_scene_cfg(go1_robot_cfg(), ROUGH_TERRAINS_CFG, base_body=BASE_BODY,
+                           sensed_bodies=[BASE_BODY, *THIGH_BODIES, *FOOT_BODIES])
+
+
+@configclass
+class CommandsCfg:
+    base_velocity = velocity_command_cfg()
+
+
+@configclass
+class ActionsCfg:
+    joint_pos = mdp.JointPositionActionCfg(joint_names=[LEG_JOINTS], scale=dict(ACTION_SCALE),
+                                           use_default_offset=True)
+
+
+@configclass
+class ObservationsCfg:
+    policy = velocity_policy_obs_cfg(LEGS)
+    critic = VelocityCriticObsCfg()
+
+
+@configclass
+class RewardsCfg:
+    # -- task
+    termination_penalty = RewTerm(func=mdp.is_terminated, weight=-100.0)
+    track_lin_vel_xy_exp = RewTerm(func=mdp.track_lin_vel_xy_exp, weight=2.0,
+                                   params={"command_name": "base_velocity", "std": 0.5})
+    track_ang_vel = RewTerm(func=mdp.track_ang_vel_z_exp, weight=1.0,
+                            params={"command_name": "base_velocity", "std": 0.5})
+    # -- base
+    lin_vel_z = RewTerm(func=mdp.lin_vel_z_l2, weight=-2.0)
+    ang_vel_xy = RewTerm(func=mdp.ang_vel_xy_l2, weight=-0.05)
+    orientation = RewTerm(func=mdp.flat_orientation_l2, weight=-1.0)
+    # -- joints
+    torques = RewTerm(func=mdp.joint_torques_l2, weight=-2.0e-4, params={"asset_cfg": LEGS})
+    dof_acc = RewTerm(func=mdp.joint_acc_l2, weight=-2.5e-7, params={"asset_cfg": LEGS})
+    dof_pos_limits = RewTerm(func=mdp.joint_pos_limits, weight=-1.0)
+    # -- actions (ramped by the curriculum)
+    action_rate = RewTerm(func=mdp.action_rate_l2, weight=-0.01)
+    action_rate_rate = RewTerm(func=mdp.action_rate_rate_l2, weight=-0.001)
+    # -- feet and contacts
+    feet_air_time = RewTerm(func=mdp.feet_air_time, weight=0.25,
+                            params={"command_name": "base_velocity", "threshold_s": 0.3, "sensor_cfg": FEET_CONTACT})
+    feet_slip = RewTerm(func=mdp.feet_slip, weight=-0.1, params={"sensor_cfg": FEET_CONTACT, "asset_cfg": FEET})
+    thigh_contact = RewTerm(func=mdp.undesired_contacts, weight=-1.0,
+                            params={"sensor_cfg": SceneEntityCfg(CONTACT_SENSOR, body_names=THIGH_BODIES),
+                                    "force_threshold_n": 1.0})
+
+
+@configclass
+class Go1VelocityEnvCfg(ManagerBasedRLEnvCfg):
+    num_envs = 4096
+    decimation = 4  # 50 Hz policy
+    episode_length_s = 20.0
+    scene = SCENE
+    sim = velocity_sim_cfg(max_contacts_per_world=256)
+    commands = CommandsCfg()
+    actions = ActionsCfg()
+    observations = ObservationsCfg()
+    rewards = RewardsCfg()
+    # any trunk contact ends the episode (Isaac Lab's Go1 `base_contact`), as does a tilt past 60° or the trunk
+    # 15 cm below its standing height
+    terminations = velocity_terminations_cfg(BASE_HEIGHT_TARGET_M, trunk_bodies=[BASE_BODY], max_tilt_deg=60.0,
+                                             contact_min_height_m=math.inf, height_margin_m=0.15)
+    events = velocity_events_cfg(base_body=BASE_BODY, base_mass_add_kg=(-1.0, 2.0),
+                                 base_com_range_m={"x": (-0.05, 0.05), "y": (-0.03, 0.03), "z": (-0.03, 0.03)},
+                                 extremity_bodies=FOOT_BODIES, base_wrench_n_nm=(5.0, 1.0),
+                                 extremity_wrench_n_nm=(2.0, 0.1), reset_base=uniform_root_reset(xy_range_m=2.5))
+    curriculum = velocity_curriculum_cfg(action_rate_final=-0.05, action_rate_rate_final=-0.005)
+
+
+def go1_flat_velocity_env_cfg() -> Go1VelocityEnvCfg:
+    """Velocity-Flat-Go1-v0: the rough task on flat ground, without the terrain curriculum."""
+    cfg = Go1VelocityEnvCfg()
+    return dataclasses.replace(cfg, scene=dataclasses.replace(cfg.scene, terrain=None),
+                               curriculum=dataclasses.replace(cfg.curriculum, terrain_levels=None))
