@@ -87,13 +87,13 @@ def test_the_bundle_gives_the_torchscript_policys_targets_on_the_same_states(exp
 
 def test_the_bundles_onnx_sessions_run_on_one_thread_that_does_not_spin(exported):
     """ONNX Runtime's defaults (a pool of one thread per core, spinning between runs) keep a core busy between a
-    deployed policy's runs (agile/deploy/leapp_runtime.py); the runtime's sessions are built without them."""
+    deployed policy's runs (agile/deploy/leapp_runtime.py); the runtime's InferenceSessions are built without them."""
     from agile.deploy.leapp_runtime import BundleRuntime
 
     runtime = BundleRuntime(str(exported[1]))
-    assert runtime.sessions, "the bundle has no ONNX node: nothing was checked"
-    for name, session in runtime.sessions.items():
-        options = session.get_session_options()
+    assert runtime.inference_sessions, "the bundle has no ONNX node: nothing was checked"
+    for name, inference_session in runtime.inference_sessions.items():
+        options = inference_session.get_session_options()
         assert options.intra_op_num_threads == 1, name
         assert options.get_session_config_entry("session.intra_op.allow_spinning") == "0", name
 

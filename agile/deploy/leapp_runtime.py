@@ -1,13 +1,13 @@
 """A LEAPP bundle run by LEAPP's own runtime (`leapp.InferenceManager`), and every reach into LEAPP's internals, in
 one place, for the LEAPP version it was written for.
 
-Why a reach: LEAPP 0.7.2 builds each ONNX node's session with ONNX Runtime's default options, which give the
-session an intra-op pool of one thread per core whose workers spin between runs. A deployed policy runs once per
+Why a reach: LEAPP 0.7.2 builds each ONNX node's `InferenceSession` with ONNX Runtime's default options, which give
+it an intra-op pool of one thread per core whose workers spin between runs. A deployed policy runs once per
 control period (0.1-0.2 ms of a 20 ms period at 50 Hz), so those workers spin for the rest of it: measured
 2026-12-02 on a 2-core AMD EPYC, the Velocity-G1-History-v0 bundle alone at 50 Hz kept 1.05 cores busy; with one
 thread and no spinning, 0.06 cores, and each run took 0.13 ms instead of 0.21 ms. On a robot's computer that core is
 the SDK's and the DDS stack's (beside `agile sim_robot` on 2 cores, it delayed commands by up to 115 ms and a walk
-ended in a fault). LEAPP takes no session options, so `_single_threaded_sessions` builds the sessions as LEAPP's
+ended in a fault). LEAPP takes no options for them, so `_single_threaded_inference_sessions` builds them as LEAPP's
 `SimplifiedONNXProgram._ensure_session` does, with one thread and no spinning, in place of its own.
 """
 
@@ -23,10 +23,10 @@ from agile.errors import AgileError
 from agile.utils.output import quiet_python_output
 
 LEAPP_VERSION = "0.7.2"
-"""The leapp version whose internals `_single_threaded_sessions` reaches (pyproject.toml pins it)."""
+"""The leapp version whose internals `_single_threaded_inference_sessions` reaches (pyproject.toml pins it)."""
 
 
-def control_loop_session_options():
+def control_loop_options():
     """ONNX Runtime options for a policy run once per control period: one intra-op thread that does not spin."""
     import onnxruntime as ort
 
@@ -37,15 +37,15 @@ def control_loop_session_options():
     return options
 
 
-def control_loop_session(path: str):
-    """An ONNX Runtime session of `path` (a policy.onnx) with `control_loop_session_options`, on the CPU."""
+def control_loop_inference_session(path: str):
+    """An ONNX Runtime `InferenceSession` of `path` (a policy.onnx) with `control_loop_options`, on the CPU."""
     import onnxruntime as ort
 
-    return ort.InferenceSession(path, control_loop_session_options(), providers=["CPUExecutionProvider"])
+    return ort.InferenceSession(path, control_loop_options(), providers=["CPUExecutionProvider"])
 
 
-def _single_threaded_sessions(manager) -> dict:
-    """Give each of the manager's ONNX nodes a session with one intra-op thread that does not spin; returns them by
+def _single_threaded_inference_sessions(manager) -> dict:
+    """Give each of the manager's ONNX nodes an `InferenceSession` with one intra-op thread that does not spin; returns them by
     node name. Reads and sets
     `SimplifiedONNXProgram`'s `_source_dir`, `_source_filename`, `_get_providers`, `_load_warp_runtime`, and the
     members `_ensure_session` fills (`_session`, `_input_names`, `_output_metas`, `_active_provider`)."""
@@ -54,25 +54,25 @@ def _single_threaded_sessions(manager) -> dict:
 
     installed = importlib.metadata.version("leapp")
     if installed != LEAPP_VERSION:
-        raise AgileError(f"agile.deploy.leapp_runtime builds LEAPP {LEAPP_VERSION}'s ONNX sessions (its "
+        raise AgileError(f"agile.deploy.leapp_runtime builds LEAPP {LEAPP_VERSION}'s ONNX InferenceSessions (its "
                          f"SimplifiedONNXProgram's members); leapp {installed} is installed: "
                          f"pip install leapp=={LEAPP_VERSION}")
-    sessions = {}
+    inference_sessions = {}
     for name, node in manager.nodes.items():
         program = node.model
         if not isinstance(program, SimplifiedONNXProgram):
             continue
         model_path = str(Path(program._source_dir) / program._source_filename)
-        options = control_loop_session_options()
+        options = control_loop_options()
         program._load_warp_runtime(options, model_path)
         options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_BASIC  # as LEAPP: its note on ALL
-        session = ort.InferenceSession(model_path, options, providers=program._get_providers())
-        program._session = session
-        program._input_names = [i.name for i in session.get_inputs()]
-        program._output_metas = list(session.get_outputs())
-        program._active_provider = session.get_providers()[0]
-        sessions[name] = session
-    return sessions
+        inference_session = ort.InferenceSession(model_path, options, providers=program._get_providers())
+        program._session = inference_session
+        program._input_names = [i.name for i in inference_session.get_inputs()]
+        program._output_metas = list(inference_session.get_outputs())
+        program._active_provider = inference_session.get_providers()[0]
+        inference_sessions[name] = inference_session
+    return inference_sessions
 
 
 class BundleRuntime:
@@ -102,8 +102,8 @@ class BundleRuntime:
         self.kp_name, self.kd_name = gains.get("kp"), gains.get("kd")
         with quiet_python_output():  # LEAPP's runtime warns on every machine without CUDA
             self.manager = InferenceManager(path)
-        self.sessions = _single_threaded_sessions(self.manager)
-        """The ONNX Runtime sessions LEAPP runs, by node name (one intra-op thread each, no spinning)."""
+        self.inference_sessions = _single_threaded_inference_sessions(self.manager)
+        """The ONNX Runtime InferenceSessions LEAPP runs, by node name (one intra-op thread each, no spinning)."""
 
     def check_joints(self, joint_names: list[str]) -> None:
         """Raise ValueError unless the bundle's joint inputs are `joint_names`, in that order."""

@@ -153,7 +153,7 @@ class DescriptorRuntime:
     terms' joints, in the order of the targets returned. What `DescriptorPolicy` (MuJoCo) and `agile.deploy` share."""
 
     def __init__(self, descriptor: dict, policy_path: str, onnx_session_factory=None):
-        """`onnx_session_factory(path)`: the session a policy.onnx runs in (default: onnx's ReferenceEvaluator, no
+        """`onnx_session_factory(path)`: the `InferenceSession` (or anything with its run()) a policy.onnx runs in (default: onnx's ReferenceEvaluator, no
         extra dependency)."""
         self.observer = Observer(descriptor)
         self.inputs = self.observer.inputs

@@ -60,11 +60,11 @@ class DeployPolicy:
         else:
             import yaml
 
-            from agile.deploy.leapp_runtime import control_loop_session
+            from agile.deploy.leapp_runtime import control_loop_inference_session
             from agile.deploy.mujoco_policy import DescriptorRuntime
 
             descriptor = yaml.safe_load(Path(exported.path).read_text())
-            self.runtime = DescriptorRuntime(descriptor, exported.policy_file, onnx_session_factory=control_loop_session)
+            self.runtime = DescriptorRuntime(descriptor, exported.policy_file, onnx_session_factory=control_loop_inference_session)
         self.from_motor = np.array([motor[n] for n in cfg["joint_names"]])  # policy joint i <- motor from_motor[i]
         self.target_ids = np.array([motor[n] for n in self.runtime.target_joints])
         self.default_q = np.zeros(len(robot.motor_joints))
