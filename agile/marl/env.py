@@ -134,6 +134,14 @@ class MultiAgentEnv(gym.Env):
         return ({n: a.obs_buf for n, a in self.agents.items()},
                 {n: {"log": a.log.snapshot()} for n, a in self.agents.items()})
 
+    def check_observation_groups(self, *groups: str) -> None:
+        """Raise ConfigError unless every agent has each of `groups` (a trainer's actor and critic inputs)."""
+        for name, agent in self.agents.items():
+            missing = [g for g in groups if g not in agent.observation_manager.group_dims]
+            if missing:
+                raise ConfigError(f"agent '{name}': no observation group {missing}; groups: "
+                                  f"{list(agent.observation_manager.group_dims)}")
+
     def step(self, actions: dict[str, torch.Tensor]) -> dict[str, AgentStep]:
         """Apply the acting agents' actions and run to the next slot; an `AgentStep` for each agent acting there."""
         acting = self.acting_agents

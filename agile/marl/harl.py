@@ -81,11 +81,7 @@ class HarlWorldView:
     def __init__(self, world: MultiAgentEnv, actor_group: str = "policy", critic_group: str = "critic"):
         if not isinstance(world, MultiAgentEnv):
             raise ConfigError(f"HAPPO trains a multi-agent world; got a {type(world).__name__}")
-        for name, agent in world.agents.items():
-            missing = [g for g in (actor_group, critic_group) if g not in agent.observation_manager.group_dims]
-            if missing:
-                raise ConfigError(f"agent '{name}': no observation group {missing}; groups: "
-                                  f"{list(agent.observation_manager.group_dims)}")
+        world.check_observation_groups(actor_group, critic_group)
         self.world = world
         self.actor_group, self.critic_group = actor_group, critic_group
         self.agent_names = list(world.agents)

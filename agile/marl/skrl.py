@@ -27,11 +27,7 @@ class SkrlMultiAgentView:
         if len(world.schedule.slots) != 1:
             raise ConfigError(f"MAPPO acts for every agent at every step; this world's agents act at different "
                               f"steps ({world.schedule.describe()}): train it by agent groups instead")
-        for name, agent in world.agents.items():
-            missing = [g for g in (actor_group, critic_group) if g not in agent.observation_manager.group_dims]
-            if missing:
-                raise ConfigError(f"agent '{name}': no observation group {missing}; groups: "
-                                  f"{list(agent.observation_manager.group_dims)}")
+        world.check_observation_groups(actor_group, critic_group)
         self.world = world
         self.actor_group, self.critic_group = actor_group, critic_group
         self.num_envs = world.num_envs
