@@ -140,7 +140,7 @@ def test_sim2mujoco_from_python_returns_the_metrics(tmp_path):
 
 def test_play_and_a_sweep_run_from_their_options(tmp_path):
     from agile.run.eval import EvalOptions, check_eval_options
-    from agile.run.play import PlayOptions
+    from agile.run.play import PlayOptions, check_play_options
     from agile.run.task_kinds import run_command
 
     played = run_command("play", TASK, PlayOptions(task=TASK, device="cpu", num_envs=1, num_steps=3, sinusoidal=True,
@@ -148,6 +148,8 @@ def test_play_and_a_sweep_run_from_their_options(tmp_path):
     assert played["steps"] == 3 and played["env_steps_per_s"] > 0 and played["falls"] <= played["episodes"]
     with pytest.raises(AgileError, match="viewer must be one of none, viser"):
         run_command("play", TASK, PlayOptions(task=TASK, viewer="vr"))
+    with pytest.raises(AgileError, match="--video_reference draws into the --video mp4"):
+        check_play_options(PlayOptions(task=TASK, video_reference=True))
 
     out = tmp_path / "sweep.json"
     options = EvalOptions(task=TASK, device="cpu", num_envs=2, episode_length_s=0.2, sweep_lin_vel_x=(0.0, 0.5),

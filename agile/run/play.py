@@ -138,6 +138,13 @@ def show_fallen_states(env_cfg, task: str) -> None:
     env_cfg.episode_length_s = 1.0
 
 
+def check_play_options(options: PlayOptions) -> None:
+    """Refuse, before anything is built, options that cannot go together (for a task of any kind; the kind's play
+    function refuses what it does not take)."""
+    if options.video_reference and not options.video:
+        raise AgileError("--video_reference draws into the --video mp4: give --video PATH.mp4 too")
+
+
 @command
 def main(argv=None) -> None:
     parser = arguments.new_parser(__doc__)
@@ -169,8 +176,6 @@ def main(argv=None) -> None:
                              "every second, zero actions (the joints hold where they lie)")
     arguments.add_checkpoint_args(parser)
     args = arguments.parse(parser, argv)
-    if args.video_reference and not args.video:
-        raise AgileError("--video_reference draws into the --video mp4: give --video PATH.mp4 too")
     options = PlayOptions(
         task=args.task, num_envs=args.num_envs, device=args.device, seed=args.seed, rnn=args.rnn,
         overrides=tuple(args.overrides), checkpoint=args.checkpoint, sinusoidal=args.sinusoidal,
@@ -178,6 +183,7 @@ def main(argv=None) -> None:
         real_time=args.real_time, usd=args.usd, video=args.video, video_size=tuple(args.video_size),
         video_reference=args.video_reference, validate_fallen_states=args.validate_fallen_states,
         trust_checkpoint=args.trust_checkpoint, collect_datasets_anew=args.no_cache)
+    check_play_options(options)
     run_command("play", options.task, options)
 
 
