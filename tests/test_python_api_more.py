@@ -195,3 +195,16 @@ def test_the_stand_up_startup_dataset_is_collected_anew_through_the_task_spec():
     resets = [term for term in vars(env_cfg.events).values()
               if isinstance(term, EventTerm) and term.func is reset_from_fallen_dataset]
     assert resets and all(term.params["dataset"].use_cache is False for term in resets)
+
+
+def test_a_multi_agent_benchmark_from_python_returns_a_row_per_env_count(tmp_path):
+    from agile.run.benchmark import BenchmarkOptions
+    from agile.run.task_kinds import run_command
+
+    out = tmp_path / "benchmark.json"
+    rows = run_command("benchmark", MULTI_AGENT_TASK, BenchmarkOptions(task=MULTI_AGENT_TASK, num_envs=(1,),
+                                                                       device="cpu", steps=2, out=str(out)))
+    (row,) = rows
+    assert row["num_envs"] == 1 and set(row["single_agent"]) == {"g1", "t1"} and row["seconds_per_simulated_s"] > 0
+    assert row["ratio_to_sum"] == pytest.approx(row["seconds_per_simulated_s"] / row["sum_of_single_agent_s"])
+    assert json.loads(out.read_text())["results"] == json.loads(json.dumps(rows))

@@ -12,7 +12,8 @@ once and reseeded before each checkpoint, so that every checkpoint meets the sam
 score is its worst margin to the criteria (`agile/tasks/catalogue.py`: value / maximum, per band where a maximum bounds
 a breakdown such as HeightTracking's commanded-height bands; at most 1 where every criterion is met); the best is the
 lowest. Fewer envs, shorter episodes or the CPU still rank them, but (as `eval_all`) do not judge whether one meets
-the criteria. Prints a table; --out writes the rows as JSON.
+the criteria. Prints a table; --out writes the rows as JSON. From Python: `pick_checkpoint(task=..., run_dir=..., ...)`
+returns them.
 """
 
 from __future__ import annotations

@@ -8,7 +8,8 @@
 A run is a run folder (any task: PPO, distillation; a multi-agent run's folder gives one curve per agent group,
 from its group subfolders) or event files. A run given as several (comma-separated, with --run LABEL=...) is
 joined in order, e.g. a run and its resumption: each replaces the earlier ones from its first iteration on.
-Without --tag, the panels are the default tags the first run logged.
+Without --tag, the panels are the default tags the first run logged. From Python:
+`plot_learning_curve(runs=[...], labelled=[...], out=..., tags=[...])` returns the PNG's path.
 """
 
 from __future__ import annotations

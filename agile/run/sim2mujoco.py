@@ -12,7 +12,8 @@ the joint torques come from the descriptor's gains and DC-motor limits (computed
 applied as joint forces), and the robot collides with a ground plane. A recurrent policy carries its hidden
 state from step to step and starts each episode from zeros. The actuator delays of training are not
 modelled. Reports fall rate and velocity tracking errors like `agile eval` (and the base-height error for a
-height command); writes JSON with --out.
+height command); writes JSON with --out. From Python: `sim2mujoco(io=..., policy=...)` or `sim2mujoco(bundle=...)`
+returns the metrics.
 """
 
 from __future__ import annotations

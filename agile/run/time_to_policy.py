@@ -15,7 +15,8 @@ Evaluating beside the training on its GPU slows it (two processes take turns on 
 against 0.52 s alone, G1 on an H100). `--eval_device cuda:N` evaluates on another GPU of the host;
 `--evaluate_after_training` trains for the whole budget undisturbed, then evaluates the checkpoints in order: the
 time to policy is then when the first one that meets the criteria was written, as a training without evaluations
-would have reached it.
+would have reached it. From Python: `time_to_policy(task=..., budget_s=..., out=..., ...)` returns what <out>.json
+holds.
 """
 
 from __future__ import annotations
