@@ -21,7 +21,7 @@ def test_every_registered_task_has_a_spec():
     for task in agile.tasks.registered_tasks():
         spec = agile.tasks.task_spec(task)
         assert isinstance(spec, TaskSpec) and spec.task == task
-    assert agile.tasks.task_spec("StandUp-T1-v0").startup_dataset == "agile.run.env:collect_fallen_states_anew"
+    assert agile.tasks.task_spec("StandUp-T1-v0").startup_dataset == "agile.tasks.stand_up.fallen_states.startup:collect_fallen_states_anew"
     assert agile.tasks.task_spec("Velocity-T1-v0").startup_dataset is None
     with pytest.raises(dataclasses.FrozenInstanceError):
         agile.tasks.task_spec("Velocity-T1-v0").kind = "debug"

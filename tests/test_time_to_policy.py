@@ -64,7 +64,7 @@ def test_several_ranks_train_through_torchrun_on_the_cpu(tmp_path, capsys):
 def test_a_run_without_an_evaluated_checkpoint_writes_no_curve(tmp_path):
     """A budget too short for a first checkpoint: the JSON says so and the curve is skipped (a plot of no metric
     was a matplotlib error after the whole run)."""
-    from agile.run.time_to_policy import plot
+    from agile.run.time_to_policy_plots import plot
 
     result = {"task": "Velocity-T1-v0", "evaluations": [], "criteria": {"fall_rate": 0.05}, "first_iteration_s": None,
               "time_to_policy_s": None, "gpus": 1, "seed": None}
@@ -102,7 +102,7 @@ def test_the_seed_summary_counts_a_miss_as_its_budget():
 
 def test_the_curve_title_says_whether_the_criteria_were_met():
     """A run that missed its criteria was titled "time to policy None s"."""
-    from agile.run.time_to_policy import outcome
+    from agile.run.time_to_policy_plots import outcome
 
     missed = {"time_to_policy_s": None, "budget_s": 420.0, "iteration_at_criteria": None}
     assert outcome(missed) == "criteria not met within 420 s"

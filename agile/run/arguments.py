@@ -97,6 +97,14 @@ def parse(parser: argparse.ArgumentParser, argv=None):
     return args
 
 
+def given_overrides(args) -> list[str]:
+    """The overrides given on the command line, without the --recipe's that `parse` put before them (for a library
+    function that takes the recipe and applies it itself)."""
+    from agile.run.recipes import RECIPES
+
+    return list(args.overrides[len(RECIPES[args.recipe]):] if getattr(args, "recipe", None) else args.overrides)
+
+
 def check_paths(args) -> None:
     """Refuse a checkpoint, teacher or initial policy that does not exist, and an output path that cannot be written,
     before anything heavy is imported (a multi-agent --init_policy is GROUP=PATH; a multi-agent --checkpoint may be

@@ -21,6 +21,7 @@ separate world, and the env.step and training rates are also given as ratios to 
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import tempfile
 import time
@@ -29,6 +30,22 @@ from agile.run.arguments import command
 from agile.run import arguments, task_setup
 from agile.errors import AgileError
 from agile.run.training_timing import synchronize, time_training
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchmarkOptions:
+    """Everything `agile benchmark` measures with, for a task of any kind (`agile.run.task_kinds`: the kind's benchmark
+    function takes it): the env counts `num_envs`, one after another; `steps` timed per measurement; `recipe`: the
+    name of the recipe (agile.run.recipes) whose overrides are at the front of `overrides`, recorded in `out` (the
+    results as JSON)."""
+    task: str
+    num_envs: tuple = (1024, 4096, 16384)
+    device: str | None = None
+    steps: int = 200
+    train_iterations: int = 20
+    overrides: tuple = ()
+    recipe: str | None = None
+    out: str | None = None
 
 
 RUNNING_STATE_ENV_STEPS = 50
@@ -201,7 +218,10 @@ def main(argv=None) -> None:
 
     from agile.run.task_kinds import run_command
 
-    run_command("benchmark", args.task, args)
+    options = BenchmarkOptions(task=args.task, num_envs=tuple(args.num_envs), device=args.device, steps=args.steps,
+                               train_iterations=args.train_iterations, overrides=tuple(args.overrides),
+                               recipe=args.recipe, out=args.out)
+    run_command("benchmark", options.task, options)
 
 
 def benchmark(*, task: str, num_envs=(1024, 4096, 16384), device: str | None = None, steps: int = 200,
@@ -224,16 +244,17 @@ def benchmark(*, task: str, num_envs=(1024, 4096, 16384), device: str | None = N
     return rows
 
 
-def benchmark_single_agent(args) -> None:
-    """`agile benchmark` for every kind but multi-agent (`agile.run.task_kinds`): the rows and their tables."""
+def benchmark_single_agent(options: BenchmarkOptions) -> list[dict]:
+    """`agile benchmark` for every kind but multi-agent (`agile.run.task_kinds`): `benchmark`'s rows, their tables
+    printed, and written as JSON to `out` where given."""
     import torch
 
-    rows = benchmark(task=args.task, num_envs=args.num_envs, device=args.device, steps=args.steps,
-                     train_iterations=args.train_iterations, overrides=args.overrides)
-    device, _ = task_setup.resolve_device(args.device)
+    rows = benchmark(task=options.task, num_envs=options.num_envs, device=options.device, steps=options.steps,
+                     train_iterations=options.train_iterations, overrides=options.overrides)
+    device, _ = task_setup.resolve_device(options.device)
 
     name = torch.cuda.get_device_name() if str(device).startswith("cuda") else "CPU"
-    print(f"\n{args.task} on {name} (env-steps/s; ratios to raw physics)")
+    print(f"\n{options.task} on {name} (env-steps/s; ratios to raw physics)")
     print(f"{'envs':>7} {'raw physics':>12} {'env.step':>10} {'ratio':>6} {'train':>10} {'ratio':>6} "
           f"{'startup s':>9} {'mem GB':>7} {'actuators':>9}")
     for r in rows:
@@ -281,10 +302,11 @@ def benchmark_single_agent(args) -> None:
         for r in flat_rows:
             print(f"{r['num_envs']:>7} {r['flat_raw_physics']:>12.0f} {r['env_step']:>10.0f} "
                   f"{r['env_step_ratio_to_flat']:>6.2f} {r['train']:>10.0f} {r['train_ratio_to_flat']:>6.2f}")
-    if args.out:
-        with open(args.out, "w") as f:
-            json.dump({"task": args.task, "device": name, "recipe": args.recipe, "overrides": list(args.overrides),
-                       "results": rows}, f, indent=2)
+    if options.out:
+        with open(options.out, "w") as f:
+            json.dump({"task": options.task, "device": name, "recipe": options.recipe,
+                       "overrides": list(options.overrides), "results": rows}, f, indent=2)
+    return rows
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ key means is there). From Python: `evaluate_checkpoint(task=..., ...)` returns t
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import typing
@@ -29,6 +30,46 @@ from agile.run.metric_breakdowns import error_by_command_tables
 from agile.run.rollout_metrics import evaluate, evaluate_per_env, summarise, velocity_command_name
 from agile.run.policy import inference_cfg
 from agile.run.sweep_plots import plot_sweep
+
+
+@dataclasses.dataclass(frozen=True)
+class EvalOptions:
+    """Everything `agile eval` evaluates with, for a task of any kind (`agile.run.task_kinds`: the kind's eval function
+    takes it). A single-agent task: `evaluate_checkpoint`'s keyword arguments, or a sweep (`sweep_lin_vel_x` [m/s],
+    times `sweep_base_height` [m]; or `sweep_command`: values of the task's one-value command); a multi-agent task:
+    `checkpoint` is its training run folder. `out`: the metrics (or the sweep's rows) written as JSON there."""
+    task: str
+    checkpoint: str | None = None
+    num_envs: int | None = None
+    device: str | None = None
+    seed: int | None = None
+    rnn: str | None = None
+    overrides: tuple = ()
+    num_episodes: int = 1
+    episode_length_s: float = 20.0
+    pushes: bool = False
+    command: tuple | None = None
+    sweep_lin_vel_x: tuple | None = None
+    sweep_base_height: tuple | None = None
+    sweep_command: tuple | None = None
+    usd: str | None = None
+    video: str | None = None
+    out: str | None = None
+    trust_checkpoint: bool = False
+    collect_datasets_anew: bool = False
+
+
+def check_eval_options(options: EvalOptions) -> None:
+    """Refuse, before anything is built, options that cannot go together (for a task of any kind; the kind's eval
+    function refuses what it does not take)."""
+    if options.sweep_command is not None and (options.sweep_lin_vel_x is not None or options.command is not None):
+        raise AgileError("--sweep_command holds its own commands: not with --sweep_lin_vel_x or --command")
+    if options.num_episodes < 1:
+        raise AgileError(f"num_episodes must be at least 1, got {options.num_episodes}")
+    for path, field in ((options.out, "out"), (options.usd, "usd"), (options.video, "video")):
+        if path is not None:
+            task_setup.check_writable(path, field)
+
 
 def sweep_cells(lin_vel_x_mps: list[float], base_height_m: list[float] | None) -> list[tuple[float, ...]]:
     """The commands of a sweep grid: (vx, 0, 0) or (vx, 0, 0, h), vx fastest."""
@@ -76,33 +117,39 @@ def sweep_table(rows: list) -> str:
     return "\n".join(lines)
 
 
-def write_sweep(args, env, checkpoint: str, device: str, rows_key: str, rows: list) -> None:
-    """A sweep's rows as JSON in --out, with what was evaluated and how."""
-    result = {"task": args.task, "checkpoint": checkpoint, "device": device, "num_envs": env.num_envs,
-              "episodes_per_env": args.num_episodes, "episode_length_s": args.episode_length_s, rows_key: rows}
-    with open(args.out, "w") as f:
+def sweep_result(options: EvalOptions, evaluation, rows_key: str, rows: list) -> dict:
+    """A sweep's rows ("cells" or "values") with what was evaluated and how: what --out holds."""
+    return {"task": options.task, "checkpoint": evaluation.checkpoint, "device": evaluation.device,
+            "num_envs": evaluation.env.num_envs, "episodes_per_env": options.num_episodes,
+            "episode_length_s": options.episode_length_s, rows_key: rows}
+
+
+def write_sweep(result: dict, out: str) -> None:
+    """A sweep's result as JSON in `out`, and its plot beside it."""
+    with open(out, "w") as f:
         json.dump(result, f, indent=2)
-    print(f"[agile] sweep: {args.out}")
+    print(f"[agile] sweep: {out}")
+    plot_sweep(out)
 
 
-def run_sweep(args, env, policy, checkpoint: str, device: str) -> None:
-    rows = sweep(env, policy, args.num_episodes, sweep_cells(args.sweep_lin_vel_x, args.sweep_base_height))
+def run_sweep(options: EvalOptions, evaluation) -> dict:
+    """The grid of fixed velocity commands (`sweep_lin_vel_x` times `sweep_base_height`), metrics per cell."""
+    heights_m = list(options.sweep_base_height) if options.sweep_base_height is not None else None
+    rows = sweep(evaluation.env, evaluation.policy, options.num_episodes,
+                 sweep_cells(list(options.sweep_lin_vel_x), heights_m))
     print(sweep_table(rows))
-    if args.out:
-        write_sweep(args, env, checkpoint, device, "cells", rows)
-        plot_sweep(args.out)
+    return sweep_result(options, evaluation, "cells", rows)
 
 
-def run_command_sweep(args, env, policy, checkpoint: str, device: str) -> None:
+def run_command_sweep(options: EvalOptions, evaluation) -> dict:
+    """Each env held at one of `sweep_command`'s values: where the robot settles, per value."""
     from agile.run.command_sweep import command_sweep, reward_terms_table, sweep_table as command_sweep_table
 
-    rows = command_sweep(env, policy, args.num_episodes, args.sweep_command)
+    rows = command_sweep(evaluation.env, evaluation.policy, options.num_episodes, list(options.sweep_command))
     print(command_sweep_table(rows))
     print("reward per step where the envs settle (weighted, before dt):")
     print(reward_terms_table(rows))
-    if args.out:
-        write_sweep(args, env, checkpoint, device, "values", rows)
-        plot_sweep(args.out)
+    return sweep_result(options, evaluation, "values", rows)
 
 
 class Evaluation(typing.NamedTuple):
@@ -239,35 +286,46 @@ def main(argv=None) -> None:
         return
     if args.task is None:
         parser.error("the following arguments are required: --task")
-    if args.sweep_command is not None and (args.sweep_lin_vel_x is not None or args.command is not None):
-        raise AgileError("--sweep_command holds its own commands: not with --sweep_lin_vel_x or --command")
-    run_command("eval", args.task, args)
+    options = EvalOptions(
+        task=args.task, checkpoint=args.checkpoint, num_envs=args.num_envs, device=args.device, seed=args.seed,
+        rnn=args.rnn, overrides=tuple(args.overrides), num_episodes=args.num_episodes,
+        episode_length_s=args.episode_length_s, pushes=args.pushes, command=args.command,
+        sweep_lin_vel_x=args.sweep_lin_vel_x, sweep_base_height=args.sweep_base_height,
+        sweep_command=args.sweep_command, usd=args.usd, video=args.video, out=args.out,
+        trust_checkpoint=args.trust_checkpoint, collect_datasets_anew=args.no_cache)
+    check_eval_options(options)
+    run_command("eval", options.task, options)
 
 
-def eval_single_agent(args) -> None:
-    """`agile eval` for every kind but multi-agent (`agile.run.task_kinds`)."""
-    options = dict(task=args.task, checkpoint=args.checkpoint, num_envs=args.num_envs, device=args.device,
-                   seed=args.seed, rnn=args.rnn, overrides=args.overrides, episode_length_s=args.episode_length_s,
-                   pushes=args.pushes, command=args.command, trust_checkpoint=args.trust_checkpoint,
-                   collect_datasets_anew=args.no_cache)
-    if args.sweep_command is not None or args.sweep_lin_vel_x is not None:
-        if args.usd or args.video:
+def eval_single_agent(options: EvalOptions) -> dict:
+    """`agile eval` for every kind but multi-agent (`agile.run.task_kinds`): the metrics of `evaluate_checkpoint`
+    (a summary printed), or a sweep's result (its table printed); written as JSON to `out` where given."""
+    evaluation_options = dict(
+        task=options.task, checkpoint=options.checkpoint, num_envs=options.num_envs, device=options.device,
+        seed=options.seed, rnn=options.rnn, overrides=options.overrides, episode_length_s=options.episode_length_s,
+        pushes=options.pushes, command=options.command, trust_checkpoint=options.trust_checkpoint,
+        collect_datasets_anew=options.collect_datasets_anew)
+    if options.sweep_command is not None or options.sweep_lin_vel_x is not None:
+        if options.usd or options.video:
             raise AgileError("--usd and --video record an evaluation's rollout, not a sweep's")
-        env, policy, checkpoint, device = prepare_evaluation(**options)
-        sweep_runner = run_command_sweep if args.sweep_command is not None else run_sweep
-        sweep_runner(args, env, policy, checkpoint, device)
-        return
-    metrics = evaluate_checkpoint(**options, num_episodes=args.num_episodes, usd=args.usd, video=args.video)
+        evaluation = prepare_evaluation(**evaluation_options)
+        result = (run_command_sweep if options.sweep_command is not None else run_sweep)(options, evaluation)
+        if options.out:
+            write_sweep(result, options.out)
+        return result
+    metrics = evaluate_checkpoint(**evaluation_options, num_episodes=options.num_episodes, usd=options.usd,
+                                  video=options.video)
     print(summary(metrics))
     tables = error_by_command_tables(metrics["error_by_command"])
     if tables:
         print(f"[agile] tracking errors by what was commanded:\n{tables}")
-    if args.out:
-        with open(args.out, "w") as f:
+    if options.out:
+        with open(options.out, "w") as f:
             json.dump(metrics, f, indent=2)
-        print(f"[agile] metrics: {args.out}")
+        print(f"[agile] metrics: {options.out}")
     else:
         print("[agile] --out FILE.json writes every metric (per term, per command bin, per variant) as JSON")
+    return metrics
 
 
 if __name__ == "__main__":

@@ -17,6 +17,7 @@ Run it in plain MuJoCo with `agile sim2mujoco --bundle <out>/<Task>/<Task>.yaml`
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
 from agile.run import arguments, task_setup
@@ -28,6 +29,24 @@ from agile.run.policy import inference_cfg
 
 
 EXPORT_FORMATS = ("torchscript", "leapp")
+
+
+@dataclasses.dataclass(frozen=True)
+class ExportOptions:
+    """Everything `agile export` exports with, for a task of any kind (`agile.run.task_kinds`: the kind's export
+    function takes it): `export_checkpoint`'s keyword arguments (`num_envs` None: 1); a multi-agent task's
+    `checkpoint` is its training run folder."""
+    task: str
+    out_dir: str
+    checkpoint: str | None = None
+    format: str = "torchscript"
+    device: str | None = None
+    num_envs: int | None = None
+    seed: int | None = None
+    rnn: str | None = None
+    overrides: tuple = ()
+    trust_checkpoint: bool = False
+    collect_datasets_anew: bool = False
 
 
 def export(task: str, env, agent_cfg, runner, out_dir: str) -> dict:
@@ -94,17 +113,21 @@ def main(argv=None) -> None:
                              "<out>/<task>/ (raw robot state in, joint targets out)")
     arguments.add_checkpoint_args(parser)
     args = arguments.parse(parser, argv)
-    run_command("export", args.task, args)
-
-
-def export_single_agent(args) -> None:
-    """`agile export` for every kind but multi-agent (`agile.run.task_kinds`)."""
-    paths = export_checkpoint(task=args.task, out_dir=args.out, checkpoint=args.checkpoint, format=args.format,
-                              device=args.device, num_envs=args.num_envs or 1, seed=args.seed, rnn=args.rnn,
-                              overrides=args.overrides, trust_checkpoint=args.trust_checkpoint,
-                              collect_datasets_anew=args.no_cache)
-    for kind, path in paths.items():
+    options = ExportOptions(task=args.task, out_dir=args.out, checkpoint=args.checkpoint, format=args.format,
+                            device=args.device, num_envs=args.num_envs, seed=args.seed, rnn=args.rnn,
+                            overrides=tuple(args.overrides), trust_checkpoint=args.trust_checkpoint,
+                            collect_datasets_anew=args.no_cache)
+    for kind, path in run_command("export", options.task, options).items():
         print(f"[agile] {kind}: {path}")
+
+
+def export_single_agent(options: ExportOptions) -> dict:
+    """`agile export` for every kind but multi-agent (`agile.run.task_kinds`): `export_checkpoint`'s {kind: path}."""
+    return export_checkpoint(task=options.task, out_dir=options.out_dir, checkpoint=options.checkpoint,
+                             format=options.format, device=options.device, num_envs=options.num_envs or 1,
+                             seed=options.seed, rnn=options.rnn, overrides=options.overrides,
+                             trust_checkpoint=options.trust_checkpoint,
+                             collect_datasets_anew=options.collect_datasets_anew)
 
 
 if __name__ == "__main__":

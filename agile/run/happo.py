@@ -62,14 +62,15 @@ def train(options):
     return TrainResult(log_dir=log_dir, checkpoint=checkpoint, exported={})
 
 
-def evaluate_run(args, world, run_dir: str, num_slots: int, recorders=()) -> tuple[dict, dict]:
+def evaluate_run(world, run_dir: str, num_slots: int, recorders=(),
+                 trust_checkpoint: bool = False) -> tuple[dict, dict]:
     """(per-agent metrics of `agile.run.multi_agent.evaluate`, {"happo": checkpoint}) of a HAPPO run folder's newest
     checkpoint, each actor acting on the mean of its action distribution."""
     from agile.marl.harl import AgentPolicyView, HappoCfg
     from agile.run.multi_agent import evaluate
 
     path = newest_checkpoint(run_dir)
-    contents = task_setup.read_checkpoint(path, args.trust_checkpoint)
+    contents = task_setup.read_checkpoint(path, trust_checkpoint)
     saved = contents.get("cfg", {})
     unknown = sorted(set(saved) - set(HappoCfg.__dataclass_fields__))
     if unknown:

@@ -8,7 +8,7 @@ import os
 import sys
 from pathlib import Path
 
-from agile.run import arguments, task_setup
+from agile.run import task_setup
 from agile.errors import AgileError
 from agile.run.policy import inference_cfg
 
@@ -44,13 +44,14 @@ def run_checkpoints(run_dir: str, groups) -> dict[str, str]:
     return found
 
 
-def check_train_args(args) -> None:
-    if args.video or args.init_action_std is not None or args.rnn:
+def check_train_options(options) -> None:
+    """Refuse, before anything is built, the `TrainOptions` a multi-agent training does not take."""
+    if options.video or options.init_action_std is not None or options.rnn:
         raise AgileError("--video, --init_action_std and --rnn are single-agent options (multi-agent training takes "
                          "--init_policy GROUP=PATH, --resume and --checkpoint RUN_FOLDER)")
-    if args.checkpoint:
-        check_run_folder(args.checkpoint)
-    if (args.resume or args.checkpoint) and args.init_policy:
+    if options.checkpoint:
+        check_run_folder(options.checkpoint)
+    if (options.resume or options.checkpoint) and options.init_policy:
         raise AgileError("--init_policy starts a new run; it cannot be combined with --resume/--checkpoint")
 
 
@@ -63,8 +64,8 @@ def latest_run(log_root: str, experiment: str, groups) -> str:
     return str(runs[-1])
 
 
-def train(args, rank):
-    """`agile.run.train.train` for a multi-agent task (`args`: its `TrainOptions`): every agent group trained, its
+def train_multi_agent(options, rank):
+    """`agile.run.train.train` for a multi-agent task (`options`: its `TrainOptions`): every agent group trained, its
     policy exported; a `TrainResult`."""
     from agile.marl.runner import MultiAgentRunner
     from agile.run.train import TrainResult, run_configs
@@ -73,23 +74,23 @@ def train(args, rank):
     from agile.rl.rsl_rl_adapter import set_git_status_repos
     from agile.utils.config import ConfigError
 
-    if args.trainer == "happo":
+    if options.trainer == "happo":
         from agile.run import happo
 
-        return happo.train(args)
-    check_train_args(args)
+        return happo.train(options)
+    check_train_options(options)
     if rank is not None:
         raise AgileError("--distributed trains single-agent tasks; a multi-agent task trains on one device")
-    env_cfg, agent_cfg, device = run_configs(args)
-    init_files = group_files(args.init_policy, agent_cfg.groups, "--init_policy")
-    init_contents = {g: task_setup.read_checkpoint(p, args.trust_checkpoint) for g, p in init_files.items()}
+    env_cfg, agent_cfg, device = run_configs(options)
+    init_files = group_files(options.init_policy, agent_cfg.groups, "--init_policy")
+    init_contents = {g: task_setup.read_checkpoint(p, options.trust_checkpoint) for g, p in init_files.items()}
     resume_files = {}
-    if args.resume or args.checkpoint:
-        run_dir = args.checkpoint or latest_run(args.log_root, agent_cfg.experiment_name, agent_cfg.groups)
+    if options.resume or options.checkpoint:
+        run_dir = options.checkpoint or latest_run(options.log_root, agent_cfg.experiment_name, agent_cfg.groups)
         resume_files = run_checkpoints(run_dir, agent_cfg.groups)
-    resume_contents = {g: task_setup.read_checkpoint(p, args.trust_checkpoint) for g, p in resume_files.items()}
-    world = make_world(args.task, env_cfg, device)
-    log_dir = task_setup.new_log_dir(args.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
+    resume_contents = {g: task_setup.read_checkpoint(p, options.trust_checkpoint) for g, p in resume_files.items()}
+    world = make_world(options.task, env_cfg, device)
+    log_dir = task_setup.new_log_dir(options.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
     task_setup.dump_configs(log_dir, env_cfg, agent_cfg)
     try:
         with task_setup.quiet_stdout():
@@ -104,12 +105,12 @@ def train(args, rank):
     for group, contents in init_contents.items():
         print(f"[agile] group '{group}': actor initialised from {init_files[group]}")
         restore_runner(runner.runners[group], contents, load_cfg={"actor": True})
-    if args.progress == "bar":
+    if options.progress == "bar":
         print("[agile] --progress bar: a multi-agent run prints each group's block every iteration instead")
     for group_runner in runner.runners.values():
         set_git_status_repos(group_runner, task_setup.git_repos())
         # rsl-rl's block every iteration; into a file without its terminal escape codes
-        show_progress(group_runner, "log", args.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
+        show_progress(group_runner, "log", options.full_log_every, sys.stdout.isatty(), agent_cfg.max_iterations)
     runner.learn(agent_cfg.max_iterations)
     export_dir = os.path.join(log_dir, "exported")
     export_groups(runner, export_dir)
@@ -219,26 +220,32 @@ def check_run_folder(checkpoint: str | None) -> str:
     return checkpoint
 
 
-def run_main(args, episodes: int | None, num_steps: int | None) -> dict:
-    """eval.py (`episodes` per env) and play.py (`num_steps` steps of the world) for a multi-agent task."""
+def run_world(*, task: str, checkpoint: str | None, num_envs: int | None = None, device: str | None = None,
+              seed: int | None = None, rnn: str | None = None, overrides=(), episodes: int | None = None,
+              num_steps: int | None = None, episode_length_s: float | None = None, pushes: bool = False,
+              video: str | None = None, trust_checkpoint: bool = False) -> dict:
+    """Run a multi-agent task's trained groups from its training run folder `checkpoint` (per-group PPO or HAPPO) for
+    `episodes` per env (eval) or `num_steps` steps of the world (play); per-agent metrics and what was run. `video`:
+    env 0 rendered into this mp4."""
     from agile.run.recorders import VideoRecorder
 
     from agile.run import happo
 
-    run_dir = check_run_folder(args.checkpoint)
+    run_dir = check_run_folder(checkpoint)
     is_happo_run = happo.newest_checkpoint(run_dir) is not None  # else a run of per-group PPO learners
-    env_cfg, agent_cfg, device = task_setup.load_task(**arguments.task_options(args))
-    if getattr(args, "episode_length_s", None) is not None:
-        env_cfg.episode_length_s = args.episode_length_s
+    env_cfg, agent_cfg, device = task_setup.load_task(task=task, num_envs=num_envs, device=device, seed=seed, rnn=rnn,
+                                                      overrides=overrides)
+    if episode_length_s is not None:
+        env_cfg.episode_length_s = episode_length_s
     if not is_happo_run:
         run_checkpoints(run_dir, agent_cfg.groups)  # a missing group is reported before the build
-    world = make_world(args.task, evaluation_cfg(env_cfg, getattr(args, "pushes", False)), device)
-    recorders = [VideoRecorder(args.video, world)] if args.video else []
+    world = make_world(task, evaluation_cfg(env_cfg, pushes), device)
+    recorders = [VideoRecorder(video, world)] if video else []
     num_slots = episode_slots(world, episodes) if episodes is not None else num_steps
     if is_happo_run:
-        metrics, files = happo.evaluate_run(args, world, run_dir, num_slots, recorders)
+        metrics, files = happo.evaluate_run(world, run_dir, num_slots, recorders, trust_checkpoint)
     else:
-        runner, files = restored_runner(world, agent_cfg, run_dir, args.trust_checkpoint)
+        runner, files = restored_runner(world, agent_cfg, run_dir, trust_checkpoint)
         policies = {view: runner.runners[g].get_inference_policy(device=str(world.device))
                     for g, view in runner.views.items()}
         metrics = evaluate(world, policies, num_slots, recorders)
@@ -249,7 +256,7 @@ def run_main(args, episodes: int | None, num_steps: int | None) -> dict:
         for agent_metrics in metrics.values():
             agent_metrics["episodes"] = episodes * world.num_envs
             agent_metrics["fall_rate"] = agent_metrics["falls"] / (episodes * world.num_envs)
-    return {"agents": metrics, "task": args.task, "checkpoints": files, "device": device,
+    return {"agents": metrics, "task": task, "checkpoints": files, "device": device,
             "num_envs": world.num_envs, "episode_length_s": world.max_episode_length_s}
 
 
@@ -259,39 +266,54 @@ def print_agents(metrics: dict) -> None:
               f"{m['lin_vel_error_mps']:.3f} m/s")
 
 
-def eval_main(args) -> None:
-    """`agile eval` for a multi-agent task: each agent's summary printed, every metric in --out."""
-    if any(getattr(args, name) is not None for name in ("command", "sweep_lin_vel_x", "sweep_command", "usd")):
+def world_options(options) -> dict:
+    """`run_world`'s keyword arguments that an eval's or a play's options (`EvalOptions`, `PlayOptions`) share."""
+    return dict(task=options.task, checkpoint=options.checkpoint, num_envs=options.num_envs, device=options.device,
+                seed=options.seed, rnn=options.rnn, overrides=options.overrides, video=options.video,
+                trust_checkpoint=options.trust_checkpoint)
+
+
+def eval_multi_agent(options) -> dict:
+    """`agile eval` for a multi-agent task (`options`: its `EvalOptions`): each agent's summary printed, the metrics
+    returned and written as JSON to `out` where given."""
+    if any(getattr(options, name) is not None for name in ("command", "sweep_lin_vel_x", "sweep_command", "usd")):
         raise AgileError("--command, the sweeps and --usd are single-agent options (a multi-agent task takes --video)")
-    metrics = run_main(args, args.num_episodes, None)
-    metrics["pushes"] = args.pushes
+    metrics = run_world(**world_options(options), episodes=options.num_episodes,
+                        episode_length_s=options.episode_length_s, pushes=options.pushes)
+    metrics["pushes"] = options.pushes
     print_agents(metrics)
-    if args.out:
-        with open(args.out, "w") as f:
+    if options.out:
+        with open(options.out, "w") as f:
             json.dump(metrics, f, indent=2)
-        print(f"[agile] metrics: {args.out}")
+        print(f"[agile] metrics: {options.out}")
+    return metrics
 
 
-def play_main(args) -> None:
-    """`agile play` for a multi-agent task: headless, its trained groups, for --num_steps steps."""
+def play_multi_agent(options) -> dict:
+    """`agile play` for a multi-agent task (`options`: its `PlayOptions`): headless, its trained groups, for
+    `num_steps` steps; the per-agent metrics."""
     from agile.run.play import DEFAULT_HEADLESS_STEPS
 
-    if args.viewer == "viser" or args.usd or args.sinusoidal:
+    if options.viewer == "viser" or options.usd or options.sinusoidal:
         raise AgileError("a multi-agent task plays headless with its trained groups (--checkpoint RUN_FOLDER, "
                          "--video); --viewer, --usd and --sinusoidal are single-agent options")
-    if args.video_reference:
+    if options.video_reference:
         raise AgileError("--video_reference: a multi-agent task's commands have no reference pose")
-    print_agents(run_main(args, None, args.num_steps or DEFAULT_HEADLESS_STEPS))
+    metrics = run_world(**world_options(options), num_steps=options.num_steps or DEFAULT_HEADLESS_STEPS)
+    print_agents(metrics)
+    return metrics
 
 
-def export_main(args) -> None:
-    """`agile export` for a multi-agent task: every group of a training run, as TorchScript into <out>/<group>/."""
-    if args.format != "torchscript":
-        raise AgileError(f"--format {args.format}: a multi-agent task exports each group's policy as TorchScript")
-    run_dir = check_run_folder(args.checkpoint)
-    env_cfg, agent_cfg, device = task_setup.load_task(**arguments.task_options(args))
-    world = make_world(args.task, evaluation_cfg(env_cfg, pushes=False), device)
-    runner, _ = restored_runner(world, agent_cfg, run_dir, args.trust_checkpoint)
-    export_groups(runner, args.out)
-    for group in runner.views:
-        print(f"[agile] {group}: {os.path.join(args.out, group)}")
+def export_multi_agent(options) -> dict:
+    """`agile export` for a multi-agent task (`options`: its `ExportOptions`): every group of a training run, as
+    TorchScript into <out_dir>/<group>/; {group: its folder}."""
+    if options.format != "torchscript":
+        raise AgileError(f"--format {options.format}: a multi-agent task exports each group's policy as TorchScript")
+    run_dir = check_run_folder(options.checkpoint)
+    env_cfg, agent_cfg, device = task_setup.load_task(task=options.task, num_envs=options.num_envs,
+                                                      device=options.device, seed=options.seed, rnn=options.rnn,
+                                                      overrides=options.overrides)
+    world = make_world(options.task, evaluation_cfg(env_cfg, pushes=False), device)
+    runner, _ = restored_runner(world, agent_cfg, run_dir, options.trust_checkpoint)
+    export_groups(runner, options.out_dir)
+    return {group: os.path.join(options.out_dir, group) for group in runner.views}

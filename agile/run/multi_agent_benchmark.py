@@ -57,15 +57,18 @@ def measure_single(task: str, num_envs: int, device: str, calls: int, overrides:
             "seconds_per_simulated_s": seconds_per_simulated_second(step, env.step_dt, calls, env.device)}
 
 
-def benchmark(task: str, num_envs_list: list[int], device: str | None, steps: int, overrides: list[str],
-              out: str | None) -> None:
+def benchmark(*, task: str, num_envs=(1024, 4096, 16384), device: str | None = None, steps: int = 200,
+              overrides=()) -> list[dict]:
+    """Measure a multi-agent task at each env count of `num_envs`: the world's wall seconds per simulated second
+    (`steps` calls timed) against the sum of its agents' single-robot tasks (`single_agent_baselines` of its spec),
+    each alone in its own world; a row per count, each printed as JSON when measured, then a table."""
     import agile.tasks
 
     baselines = agile.tasks.task_spec(task).single_agent_baselines
     rows = []
-    for num_envs in num_envs_list:
-        world = measure_world(task, num_envs, device, steps, overrides)
-        singles = {agent: measure_single(t, num_envs, world["device"], steps, list(o))
+    for count in num_envs:
+        world = measure_world(task, count, device, steps, list(overrides))
+        singles = {agent: measure_single(t, count, world["device"], steps, list(o))
                    for agent, (t, o) in baselines.items()}
         total = sum(s["seconds_per_simulated_s"] for s in singles.values())
         row = {**world, "single_agent": singles, "sum_of_single_agent_s": total,
@@ -80,11 +83,15 @@ def benchmark(task: str, num_envs_list: list[int], device: str | None, steps: in
         ratio = f"{r['ratio_to_sum']:.2f}" if r["ratio_to_sum"] is not None else "-"
         print(f"{r['num_envs']:>7} {r['seconds_per_simulated_s']:>10.3f} {r['sum_of_single_agent_s']:>15.3f} "
               f"{ratio:>6}  {singles}")
-    if out:
-        with open(out, "w") as f:
-            json.dump({"task": task, "results": rows}, f, indent=2)
+    return rows
 
 
-def benchmark_main(args) -> None:
-    """`agile benchmark` for a multi-agent task: the world's step against the sum of its agents' single-robot tasks."""
-    benchmark(args.task, args.num_envs, args.device, args.steps, args.overrides, args.out)
+def benchmark_multi_agent(options) -> list[dict]:
+    """`agile benchmark` for a multi-agent task (`options`: its `BenchmarkOptions`): `benchmark`'s rows, written as
+    JSON to `out` where given."""
+    rows = benchmark(task=options.task, num_envs=options.num_envs, device=options.device, steps=options.steps,
+                     overrides=options.overrides)
+    if options.out:
+        with open(options.out, "w") as f:
+            json.dump({"task": options.task, "results": rows}, f, indent=2)
+    return rows

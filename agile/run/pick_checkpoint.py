@@ -12,7 +12,8 @@ once and reseeded before each checkpoint, so that every checkpoint meets the sam
 score is its worst margin to the criteria (`agile/tasks/catalogue.py`: value / maximum, per band where a maximum bounds
 a breakdown such as HeightTracking's commanded-height bands; at most 1 where every criterion is met); the best is the
 lowest. Fewer envs, shorter episodes or the CPU still rank them, but (as `eval_all`) do not judge whether one meets
-the criteria. Prints a table; --out writes the rows as JSON.
+the criteria. Prints a table; --out writes the rows as JSON. From Python: `pick_checkpoint(task=..., run_dir=..., ...)`
+returns them.
 """
 
 from __future__ import annotations
@@ -63,6 +64,67 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def pick_checkpoint(*, task: str, run_dir: str, every: int = 100, device: str | None = None,
+                    num_envs: int | None = None, episode_length_s: float | None = None, seed: int = 0,
+                    overrides=()) -> dict:
+    """Evaluate the checkpoints of the training run in `run_dir` (model_<iteration>.pt at multiples of `every`, and
+    the newest) in `task`'s evaluation setting (`num_envs`, `episode_length_s`: the catalogue's unless given; the
+    overrides the run trained with as `overrides`), one env reseeded with `seed` before each, and rank them by their
+    worst margin to the task's criteria. Prints a table; returns what `agile pick_checkpoint --out` writes: the setting,
+    whether the criteria were judged (the task's setting on a GPU), the rows and the best iteration ("best"). Raises
+    AgileError naming the field for a bad run folder, task or count, before anything is built."""
+    if every < 1:
+        raise AgileError(f"--every must be >= 1, got {every}")
+    run_path = Path(run_dir)
+    if not run_path.is_dir():
+        raise AgileError(f"--run {run_dir}: no such folder")
+    checkpoints = run_checkpoints(run_path, every)
+    if not checkpoints:
+        raise AgileError(f"--run {run_dir}: no model_<iteration>.pt in it")
+
+    from agile.run.time_to_policy import evaluator
+    from agile.tasks.catalogue import task_entry
+    from agile.utils.config import ConfigError
+
+    task_setup.check_task(task)
+    entry = task_entry(task)
+    if not entry.criteria and not entry.minima:
+        raise AgileError(f"{task} has no evaluation criteria in the catalogue (kind '{entry.kind}'): nothing to "
+                         f"pick by")
+    device, fallback = task_setup.resolve_device(device)
+    if fallback is not None:
+        print(f"[agile] {fallback}: evaluating on the CPU")
+    try:
+        evaluate = evaluator(task, list(overrides), device, num_envs, episode_length_s, seed=seed)
+    except ConfigError as err:
+        raise AgileError(str(err))
+    setting = {"num_envs": num_envs or entry.eval_settings["num_envs"],
+               "episode_length_s": episode_length_s or entry.eval_settings["episode_length_s"]}
+    # as eval_all judges: fewer envs, shorter episodes or the CPU rank the checkpoints, but cannot say one passes
+    judged = device != "cpu" and all(setting[k] >= entry.eval_settings[k] for k in setting)
+    if not judged:
+        task_setting = entry.eval_settings
+        print(f"[agile] {setting['num_envs']} envs x {setting['episode_length_s']:g} s on {device}, not the task's "
+              f"evaluation setting ({task_setting['num_envs']} envs x {task_setting['episode_length_s']:g} s on a "
+              f"GPU): the checkpoints are ranked, whether one meets the criteria is not judged")
+    rows = []
+    for iteration, path in checkpoints:
+        row = {"iteration": iteration, "checkpoint": str(path), **judge(evaluate(path), entry.criteria, entry.minima)}
+        if not judged:
+            row["met"] = None
+        rows.append(row)
+        print(f"[agile] iteration {iteration}: score {row['score']:.3f}" + (" (criteria met)" if row["met"] else ""),
+              flush=True)
+    best = min(rows, key=lambda r: r["score"])
+    print(table(rows))
+    verdict = ("criteria not judged" if best["met"] is None else "every criterion met" if best["met"]
+               else f"misses {'; '.join(best['missed'])}")
+    print(f"[agile] best: iteration {best['iteration']} ({best['checkpoint']}), score {best['score']:.3f}; {verdict}")
+    return {"task": task, "run": str(run_path), "every": every, "seed": seed, "device": device, **setting,
+            "criteria_judged": judged, "criteria": entry.criteria, "minima": entry.minima, "best": best["iteration"],
+            "rows": rows}
+
+
 @command
 def main(argv=None) -> None:
     parser = arguments.new_parser(__doc__)
@@ -77,59 +139,12 @@ def main(argv=None) -> None:
     parser.add_argument("--out", default=None, help="write the rows (and the best) as JSON here")
     parser.add_argument("overrides", nargs="*", help=arguments.OVERRIDE_HELP)
     args = arguments.parse(parser, argv)
-    if args.every < 1:
-        raise AgileError(f"--every must be >= 1, got {args.every}")
-    run_dir = Path(args.run)
-    if not run_dir.is_dir():
-        raise AgileError(f"--run {args.run}: no such folder")
-    checkpoints = run_checkpoints(run_dir, args.every)
-    if not checkpoints:
-        raise AgileError(f"--run {args.run}: no model_<iteration>.pt in it")
-
-    from agile.run.time_to_policy import evaluator
-    from agile.tasks import registered_tasks
-    from agile.tasks.catalogue import task_entry
-    from agile.utils.config import ConfigError
-
-    if args.task not in registered_tasks():
-        raise AgileError(f"unknown task '{args.task}'. Registered tasks: {', '.join(registered_tasks())}")
-    entry = task_entry(args.task)
-    if not entry.criteria and not entry.minima:
-        raise AgileError(f"{args.task} has no evaluation criteria in the catalogue (kind '{entry.kind}'): nothing to "
-                         f"pick by")
-    device, fallback = task_setup.resolve_device(args.device)
-    if fallback is not None:
-        print(f"[agile] {fallback}: evaluating on the CPU")
-    try:
-        evaluate = evaluator(args.task, args.overrides, device, args.num_envs, args.episode_length_s, seed=args.seed)
-    except ConfigError as err:
-        raise AgileError(str(err))
-    setting = {"num_envs": args.num_envs or entry.eval_settings["num_envs"],
-               "episode_length_s": args.episode_length_s or entry.eval_settings["episode_length_s"]}
-    # as eval_all judges: fewer envs, shorter episodes or the CPU rank the checkpoints, but cannot say one passes
-    judged = device != "cpu" and all(setting[k] >= entry.eval_settings[k] for k in setting)
-    if not judged:
-        print(f"[agile] {setting['num_envs']} envs x {setting['episode_length_s']:g} s on {device}, not the task's "
-              f"evaluation setting ({entry.eval_settings['num_envs']} envs x {entry.eval_settings['episode_length_s']:g} "
-              f"s on a GPU): the checkpoints are ranked, whether one meets the criteria is not judged")
-    rows = []
-    for iteration, path in checkpoints:
-        row = {"iteration": iteration, "checkpoint": str(path), **judge(evaluate(path), entry.criteria, entry.minima)}
-        if not judged:
-            row["met"] = None
-        rows.append(row)
-        print(f"[agile] iteration {iteration}: score {row['score']:.3f}" + (" (criteria met)" if row["met"] else ""),
-              flush=True)
-    best = min(rows, key=lambda r: r["score"])
-    print(table(rows))
-    verdict = ("criteria not judged" if best["met"] is None else "every criterion met" if best["met"]
-               else f"misses {'; '.join(best['missed'])}")
-    print(f"[agile] best: iteration {best['iteration']} ({best['checkpoint']}), score {best['score']:.3f}; {verdict}")
+    picked = pick_checkpoint(task=args.task, run_dir=args.run, every=args.every, device=args.device,
+                             num_envs=args.num_envs, episode_length_s=args.episode_length_s, seed=args.seed,
+                             overrides=args.overrides)
     if args.out:
         with open(args.out, "w") as f:
-            json.dump({"task": args.task, "run": str(run_dir), "every": args.every, "seed": args.seed,
-                       "device": device, **setting, "criteria_judged": judged, "criteria": entry.criteria,
-                       "minima": entry.minima, "best": best["iteration"], "rows": rows}, f, indent=2)
+            json.dump(picked, f, indent=2)
 
 
 if __name__ == "__main__":

@@ -21,6 +21,7 @@ the robot at the reference pose, about 1 m to its right: the robot and what it t
 
 from __future__ import annotations
 
+import dataclasses
 import faulthandler
 import math
 import signal
@@ -51,6 +52,37 @@ def sinusoidal_actions(step: int, step_dt: float, num_envs: int, action_dim: int
 
 
 DEFAULT_HEADLESS_STEPS = 1000
+
+
+@dataclasses.dataclass(frozen=True)
+class PlayOptions:
+    """Everything `agile play` runs with, for a task of any kind (`agile.run.task_kinds`: the kind's play function takes
+    it). `checkpoint` None: the task's shipped policy where agile has one, else sinusoidal test actions (`sinusoidal`:
+    those, always); a multi-agent task: its training run folder. `num_steps` None: DEFAULT_HEADLESS_STEPS headless,
+    until Ctrl-C with the viewer. `viewer` "viser" | "none" | None (viser for a debug task); `port`, `host`, `follow`:
+    the viewer's. `usd`, `video` (`video_size` in pixels, `video_reference`: the command's reference pose beside the
+    robot): the rollout recorded. `validate_fallen_states`: the stand-up tasks' fallen-state dataset shown."""
+    task: str
+    num_envs: int | None = None
+    device: str | None = None
+    seed: int | None = None
+    rnn: str | None = None
+    overrides: tuple = ()
+    checkpoint: str | None = None
+    sinusoidal: bool = False
+    num_steps: int | None = None
+    viewer: str | None = None
+    port: int = 8080
+    follow: bool = True
+    host: str = LOCAL_HOST
+    real_time: bool = False
+    usd: str | None = None
+    video: str | None = None
+    video_size: tuple = (640, 480)
+    video_reference: bool = False
+    validate_fallen_states: bool = False
+    trust_checkpoint: bool = False
+    collect_datasets_anew: bool = False
 
 
 class CtrlC:
@@ -106,6 +138,13 @@ def show_fallen_states(env_cfg, task: str) -> None:
     env_cfg.episode_length_s = 1.0
 
 
+def check_play_options(options: PlayOptions) -> None:
+    """Refuse, before anything is built, options that cannot go together (for a task of any kind; the kind's play
+    function refuses what it does not take)."""
+    if options.video_reference and not options.video:
+        raise AgileError("--video_reference draws into the --video mp4: give --video PATH.mp4 too")
+
+
 @command
 def main(argv=None) -> None:
     parser = arguments.new_parser(__doc__)
@@ -137,69 +176,80 @@ def main(argv=None) -> None:
                              "every second, zero actions (the joints hold where they lie)")
     arguments.add_checkpoint_args(parser)
     args = arguments.parse(parser, argv)
-    if args.video_reference and not args.video:
-        raise AgileError("--video_reference draws into the --video mp4: give --video PATH.mp4 too")
-    run_command("play", args.task, args)
+    options = PlayOptions(
+        task=args.task, num_envs=args.num_envs, device=args.device, seed=args.seed, rnn=args.rnn,
+        overrides=tuple(args.overrides), checkpoint=args.checkpoint, sinusoidal=args.sinusoidal,
+        num_steps=args.num_steps, viewer=args.viewer, port=args.port, follow=not args.no_follow, host=args.host,
+        real_time=args.real_time, usd=args.usd, video=args.video, video_size=tuple(args.video_size),
+        video_reference=args.video_reference, validate_fallen_states=args.validate_fallen_states,
+        trust_checkpoint=args.trust_checkpoint, collect_datasets_anew=args.no_cache)
+    check_play_options(options)
+    run_command("play", options.task, options)
 
 
-def play_single_agent(args) -> None:
-    """`agile play` for every kind but multi-agent (`agile.run.task_kinds`)."""
+def play_single_agent(options: PlayOptions) -> dict:
+    """`agile play` for every kind but multi-agent (`agile.run.task_kinds`): the steps run, the env-steps per second,
+    the mean reward per step, and the episodes ended (by failure: `falls`)."""
     import agile.tasks
 
-    debug_task = agile.tasks.task_kind(args.task) == "debug"
-    viewer_on = (args.viewer or ("viser" if debug_task else "none")) == "viser"
-    num_steps = args.num_steps if args.num_steps is not None else (None if viewer_on else DEFAULT_HEADLESS_STEPS)
+    if options.viewer not in (None, "none", "viser"):
+        raise AgileError(f"viewer must be one of none, viser (or None: viser for a debug task), got {options.viewer!r}")
+    debug_task = agile.tasks.task_kind(options.task) == "debug"
+    viewer_on = (options.viewer or ("viser" if debug_task else "none")) == "viser"
+    num_steps = options.num_steps if options.num_steps is not None else (None if viewer_on else DEFAULT_HEADLESS_STEPS)
 
-    checkpoint, overrides = args.checkpoint, args.overrides
-    if args.validate_fallen_states and (checkpoint or args.sinusoidal):
+    checkpoint, overrides = options.checkpoint, options.overrides
+    if options.validate_fallen_states and (checkpoint or options.sinusoidal):
         raise AgileError("--validate_fallen_states shows the dataset with zero actions: without --checkpoint or "
                          "--sinusoidal")
-    if checkpoint is None and not args.sinusoidal and not args.validate_fallen_states:
+    if checkpoint is None and not options.sinusoidal and not options.validate_fallen_states:
         # a debug task plays the policy of the task it debugs where agile ships one, else its sliders drive it
-        checkpoint, overrides = task_setup.shipped_policy(task=args.task, overrides=overrides)
-    slider_actions = debug_task and viewer_on and checkpoint is None and not args.sinusoidal
-    contents = task_setup.read_checkpoint(str(checkpoint), args.trust_checkpoint) if checkpoint and not args.sinusoidal \
-        else None
-    env_cfg, agent_cfg, device = task_setup.load_task(**arguments.task_options(args, overrides=overrides))
+        checkpoint, overrides = task_setup.shipped_policy(task=options.task, overrides=overrides)
+    slider_actions = debug_task and viewer_on and checkpoint is None and not options.sinusoidal
+    contents = (task_setup.read_checkpoint(str(checkpoint), options.trust_checkpoint)
+                if checkpoint and not options.sinusoidal else None)
+    env_cfg, agent_cfg, device = task_setup.load_task(task=options.task, num_envs=options.num_envs,
+                                                      device=options.device, seed=options.seed, rnn=options.rnn,
+                                                      overrides=overrides)
     if contents is not None:
         task_setup.warn_overrides_not_repeated(contents, {"env": env_cfg}, "play the task it was trained on")
     import torch
     env_cfg = inference_cfg(env_cfg)
-    if args.validate_fallen_states:
-        show_fallen_states(env_cfg, args.task)
-    env = task_setup.make_env(task=args.task, env_cfg=with_visual_meshes(env_cfg) if viewer_on else env_cfg, device=device,
-                       collect_datasets_anew=args.no_cache)
+    if options.validate_fallen_states:
+        show_fallen_states(env_cfg, options.task)
+    env = task_setup.make_env(task=options.task, env_cfg=with_visual_meshes(env_cfg) if viewer_on else env_cfg,
+                              device=device, collect_datasets_anew=options.collect_datasets_anew)
     policy = task_setup.load_policy(contents, env, agent_cfg) if contents is not None else None
 
     viewer = sliders = None
     if viewer_on:
         from agile.gui import ActionSliders, BrowserViewer
 
-        viewer = BrowserViewer(env, args.port, args.host, follow=not args.no_follow)
+        viewer = BrowserViewer(env, options.port, options.host, follow=options.follow)
         if slider_actions:
             sliders = ActionSliders(viewer.server, env)
         print(f"[agile] viewer on {viewer.url} (Ctrl-C to stop)")
     source = ("policy " + checkpoint if policy else "the GUI's sliders" if sliders else
-              "zero actions" if args.validate_fallen_states else "sinusoidal test actions")
-    print(f"[agile] {args.task}: {env.num_envs} envs on {device}, {source}")
+              "zero actions" if options.validate_fallen_states else "sinusoidal test actions")
+    print(f"[agile] {options.task}: {env.num_envs} envs on {device}, {source}")
 
     recorder = None
-    if args.usd:
+    if options.usd:
         from agile.run.recorders import UsdRecorder
 
-        recorder = UsdRecorder(args.usd, env, num_frames=num_steps or DEFAULT_HEADLESS_STEPS)
+        recorder = UsdRecorder(options.usd, env, num_frames=num_steps or DEFAULT_HEADLESS_STEPS)
     video = None
-    if args.video:
+    if options.video:
         from agile.run.recorders import VideoRecorder
 
-        if args.video_reference:
+        if options.video_reference:
             from agile.run.reference_view import reference_command
 
             try:
                 reference_command(env)
             except ValueError as err:
                 raise AgileError(f"--video_reference: {err}")
-        video = VideoRecorder(args.video, env, *args.video_size, reference=args.video_reference)
+        video = VideoRecorder(options.video, env, *options.video_size, reference=options.video_reference)
     obs, _ = env.reset()
     episodes = falls = step = 0
     reward_sum = torch.zeros((), device=env.device)
@@ -225,7 +275,7 @@ def play_single_agent(args) -> None:
                     actions = policy(obs)
                 elif sliders is not None:
                     actions = sliders.actions()
-                elif args.validate_fallen_states:
+                elif options.validate_fallen_states:
                     actions = torch.zeros(env.num_envs, env.action_manager.total_action_dim, device=env.device)
                 else:
                     actions = sinusoidal_actions(step, env.step_dt, env.num_envs, env.action_manager.total_action_dim,
@@ -243,7 +293,7 @@ def play_single_agent(args) -> None:
                     viewer.render(env, step * env.step_dt)
                     if sliders is not None:
                         sliders.update()
-                if args.real_time or viewer is not None:  # a viewer shows the motion at its real speed
+                if options.real_time or viewer is not None:  # a viewer shows the motion at its real speed
                     time.sleep(max(0.0, env.step_dt - (time.perf_counter() - start)))
     except KeyboardInterrupt:
         pass
@@ -252,8 +302,10 @@ def play_single_agent(args) -> None:
     if ctrl_c.requested:
         print("[agile] stopped")
     elapsed = time.perf_counter() - wall_start
-    print(f"[agile] {step} steps in {elapsed:.1f} s ({step * env.num_envs / elapsed:.0f} env-steps/s); "
-          f"mean reward per step {float(reward_sum) / max(step, 1):.4f}; episodes ended {episodes}, by failure {falls}")
+    played = {"steps": step, "env_steps_per_s": step * env.num_envs / elapsed,
+              "mean_reward_per_step": float(reward_sum) / max(step, 1), "episodes": episodes, "falls": falls}
+    print(f"[agile] {step} steps in {elapsed:.1f} s ({played['env_steps_per_s']:.0f} env-steps/s); "
+          f"mean reward per step {played['mean_reward_per_step']:.4f}; episodes ended {episodes}, by failure {falls}")
     if viewer is not None:
         viewer.close()
     if recorder is not None:
@@ -263,6 +315,7 @@ def play_single_agent(args) -> None:
         video.close()
         print(f"[agile] video ({video.frames} frames) written to {video.path}")
     env.close()
+    return played
 
 
 if __name__ == "__main__":

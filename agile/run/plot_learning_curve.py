@@ -8,7 +8,8 @@
 A run is a run folder (any task: PPO, distillation; a multi-agent run's folder gives one curve per agent group,
 from its group subfolders) or event files. A run given as several (comma-separated, with --run LABEL=...) is
 joined in order, e.g. a run and its resumption: each replaces the earlier ones from its first iteration on.
-Without --tag, the panels are the default tags the first run logged.
+Without --tag, the panels are the default tags the first run logged. From Python:
+`plot_learning_curve(runs=[...], labelled=[...], out=..., tags=[...])` returns the PNG's path.
 """
 
 from __future__ import annotations
@@ -79,16 +80,63 @@ def read_run(files: list[str]) -> dict[str, tuple[list[int], list[float]]]:
     return {tag: join_resumed(tag_pieces) for tag, tag_pieces in pieces.items()}
 
 
-def parse_runs(args) -> list[tuple[str, list[str]]]:
-    runs = [curve for folder in args.runs for curve in curves_of(None, [folder])]
-    for run in args.run or []:
+def curves_of_runs(runs=(), labelled=()) -> list[tuple[str, list[str]]]:
+    """(label, event files) of every curve: one per run folder or event file in `runs` (labelled by its name), and
+    one per "LABEL=path[,path...]" in `labelled` (a run joined from its pieces: a run and its resumptions)."""
+    curves = [curve for folder in runs for curve in curves_of(None, [folder])]
+    for run in labelled:
         label, _, paths = run.partition("=")
         if not paths:
             raise AgileError(f"--run takes LABEL=path[,path...], got '{run}'")
-        runs += curves_of(label, paths.split(","))
-    if not runs:
+        curves += curves_of(label, paths.split(","))
+    if not curves:
         raise AgileError("give a run folder (or --run LABEL=path[,path...])")
-    return runs
+    return curves
+
+
+def plot_learning_curve(*, runs=(), labelled=(), out: str | None = None, tags=None, title: str = "") -> Path:
+    """Draw the learning curves of `runs` (run folders or event files, one curve each) and `labelled` runs
+    ("LABEL=path[,path...]", a run joined from a run and its resumptions), one panel per tensorboard scalar of `tags`
+    (default: those of DEFAULT_TAGS the first run logged), into the PNG `out` (default: learning_curve.png in the
+    first run's folder); returns its path. Raises AgileError for a run without event files, tags no run logged, or
+    matplotlib missing."""
+    curves = curves_of_runs(runs, labelled)
+    try:
+        import matplotlib
+    except ImportError:
+        raise AgileError("plotting needs matplotlib, an optional extra: pip install -e \".[plot]\"")
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
+
+    scalars = {label: read_run(files) for label, files in curves}
+    first = scalars[curves[0][0]]
+    tags = list(tags or [tag for tag in DEFAULT_TAGS if tag in first])
+    if not tags:
+        raise AgileError(f"{curves[0][0]} logged none of {DEFAULT_TAGS}; choose with --tag from: {sorted(first)}")
+    fig, axes = plt.subplots(1, len(tags), figsize=(5 * len(tags), 4), squeeze=False)
+    for ax, tag in zip(axes[0], tags):
+        for label, run_scalars in scalars.items():
+            if tag not in run_scalars:
+                print(f"[agile] {label} did not log '{tag}': not in that panel")
+                continue
+            ax.plot(*run_scalars[tag], label=label)
+        ax.set_xlabel("iteration")
+        ax.xaxis.set_major_locator(MaxNLocator(5, integer=True))  # five-digit iterations stay apart
+        ax.set_ylabel(AXIS_LABELS.get(tag, tag))
+    if not any(ax.lines for ax in axes[0]):
+        plt.close(fig)
+        raise AgileError(f"no run logged {tags}; the first run's scalars: {sorted(first)}")
+    axes[0][0].legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    first_path = runs[0] if runs else labelled[0].partition("=")[2].split(",")[0]
+    out = out or os.path.join(first_path if os.path.isdir(first_path) else os.path.dirname(first_path),
+                              "learning_curve.png")
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    print(f"wrote {out}")
+    return Path(out)
 
 
 @command
@@ -103,40 +151,7 @@ def main(argv=None) -> None:
                              "that the first run logged)")
     parser.add_argument("--title", default="")
     args = arguments.parse(parser, argv)
-    runs = parse_runs(args)
-    try:
-        import matplotlib
-    except ImportError:
-        raise AgileError("plotting needs matplotlib, an optional extra: pip install -e \".[plot]\"")
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.ticker import MaxNLocator
-
-    scalars = {label: read_run(files) for label, files in runs}
-    first = scalars[runs[0][0]]
-    tags = args.tag or [tag for tag in DEFAULT_TAGS if tag in first]
-    if not tags:
-        raise AgileError(f"{runs[0][0]} logged none of {DEFAULT_TAGS}; choose with --tag from: {sorted(first)}")
-    fig, axes = plt.subplots(1, len(tags), figsize=(5 * len(tags), 4), squeeze=False)
-    for ax, tag in zip(axes[0], tags):
-        for label, run_scalars in scalars.items():
-            if tag not in run_scalars:
-                print(f"[agile] {label} did not log '{tag}': not in that panel")
-                continue
-            ax.plot(*run_scalars[tag], label=label)
-        ax.set_xlabel("iteration")
-        ax.xaxis.set_major_locator(MaxNLocator(5, integer=True))  # five-digit iterations stay apart
-        ax.set_ylabel(AXIS_LABELS.get(tag, tag))
-    if not any(ax.lines for ax in axes[0]):
-        raise AgileError(f"no run logged {tags}; the first run's scalars: {sorted(first)}")
-    axes[0][0].legend(fontsize=8)
-    fig.suptitle(args.title)
-    fig.tight_layout()
-    first_path = args.runs[0] if args.runs else args.run[0].partition("=")[2].split(",")[0]
-    out = args.out or os.path.join(first_path if os.path.isdir(first_path) else os.path.dirname(first_path),
-                                   "learning_curve.png")
-    fig.savefig(out, dpi=110)
-    print(f"wrote {out}")
+    plot_learning_curve(runs=args.runs, labelled=args.run or (), out=args.out, tags=args.tag, title=args.title)
 
 
 if __name__ == "__main__":

@@ -12,7 +12,8 @@ the joint torques come from the descriptor's gains and DC-motor limits (computed
 applied as joint forces), and the robot collides with a ground plane. A recurrent policy carries its hidden
 state from step to step and starts each episode from zeros. The actuator delays of training are not
 modelled. Reports fall rate and velocity tracking errors like `agile eval` (and the base-height error for a
-height command); writes JSON with --out.
+height command); writes JSON with --out. From Python: `sim2mujoco(io=..., policy=...)` or `sim2mujoco(bundle=...)`
+returns the metrics.
 """
 
 from __future__ import annotations
@@ -20,7 +21,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -31,8 +31,6 @@ from agile.run.mujoco_commands import make_commands
 from agile.deploy.mujoco_policy import (BundlePolicy, DescriptorPolicy, OnnxPolicy, TorchScriptPolicy,  # noqa: F401
                                      bundle_descriptor, read_bundle, yaml_load)
 from agile.deploy.mujoco_robot import Robot, build_model, rotate_inverse
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # for agile.assets (robot files) from a checkout
 
 IO_DESCRIPTOR_VERSION = 2  # what agile/rl_env/io_descriptor_file.py writes (this script does not import it)
 FALL_TILT_RAD = math.radians(60.0)
@@ -128,6 +126,55 @@ class MujocoVideo:
         self.video.close()
 
 
+def sim2mujoco(*, bundle: str | None = None, io: str | None = None, policy: str | None = None,
+               mjcf: str | None = None, episodes: int = 3, duration_s: float = 10.0, command=None, height_ramp=None,
+               seed: int = 0, video: str | None = None) -> dict:
+    """Run an exported policy in plain MuJoCo for `episodes` episodes of `duration_s` from the default pose: a LEAPP
+    `bundle` (its TASK.yaml), or the IO descriptor `io` with the TorchScript or ONNX file `policy`. `mjcf`: the robot
+    (default: the asset package's file the descriptor names); `command`: a fixed command (VX VY WZ [HEIGHT], or one
+    HEIGHT), `height_ramp`: (top, bottom) of a height command going down and up, else commands drawn per episode with
+    `seed` as in training; `video`: the rollout rendered headless into this mp4. Returns the metrics (fall rate,
+    tracking errors) and what was run. Raises AgileError for inputs it cannot run, before anything runs."""
+    by_bundle = bundle is not None and io is None and policy is None
+    by_descriptor = bundle is None and io is not None and policy is not None
+    if not (by_bundle or by_descriptor):
+        raise AgileError("give either --bundle, or --io and --policy")
+    if bundle:
+        descriptor = bundle_descriptor(read_bundle(bundle))
+
+        def make_policy(robot):
+            return BundlePolicy(bundle, robot)
+    else:
+        descriptor = yaml_load(io)
+        if descriptor.get("version") != IO_DESCRIPTOR_VERSION:
+            raise AgileError(f"{io} is an IO descriptor of version {descriptor.get('version')}, this script reads "
+                             f"version {IO_DESCRIPTOR_VERSION}: export the policy again with agile export")
+        not_joint_targets = [f"{a['name']} ({a['type']})" for a in descriptor["actions"] if "offset" not in a]
+        if not_joint_targets:
+            raise AgileError(f"{io}: sim2mujoco runs policies whose actions are joint targets (action · scale + "
+                             f"offset); these action terms are not: {not_joint_targets}")
+
+        def make_policy(robot):
+            return DescriptorPolicy(descriptor, robot, policy)
+    try:  # the command and the height ramp checked against the policy's command before anything runs
+        make_commands(next(iter(descriptor["commands"].values())), np.random.default_rng(seed),
+                      descriptor["control_dt_s"], command, height_ramp)
+    except ValueError as err:
+        raise AgileError(str(err))
+    mjcf = mjcf or default_mjcf(descriptor)
+    recorder = MujocoVideo(video, mjcf, round(1.0 / descriptor["control_dt_s"])) if video else None
+    try:
+        metrics = run(descriptor, mjcf, make_policy, episodes, duration_s, command, seed, on_frame=recorder,
+                      height_ramp=height_ramp)
+    finally:
+        if recorder is not None:
+            recorder.close()
+            print(f"[sim2mujoco] video ({recorder.video.frames} frames) written to {video}")
+    metrics.update({"io_descriptor": io, "policy": policy, "bundle": bundle, "mjcf": mjcf, "command": command,
+                    "duration_s": duration_s})
+    return metrics
+
+
 @command
 def main(argv=None) -> None:
     parser = arguments.new_parser(__doc__)
@@ -150,43 +197,9 @@ def main(argv=None) -> None:
     parser.add_argument("--video", default=None, metavar="PATH.mp4",
                         help="render the rollout headless into an mp4 (camera following the robot)")
     args = arguments.parse(parser, argv)
-    by_bundle = args.bundle is not None and args.io is None and args.policy is None
-    by_descriptor = args.bundle is None and args.io is not None and args.policy is not None
-    if not (by_bundle or by_descriptor):
-        raise AgileError("give either --bundle, or --io and --policy")
-    if args.bundle:
-        descriptor = bundle_descriptor(read_bundle(args.bundle))
-
-        def make_policy(robot):
-            return BundlePolicy(args.bundle, robot)
-    else:
-        descriptor = yaml_load(args.io)
-        if descriptor.get("version") != IO_DESCRIPTOR_VERSION:
-            raise AgileError(f"{args.io} is an IO descriptor of version {descriptor.get('version')}, this script reads "
-                             f"version {IO_DESCRIPTOR_VERSION}: export the policy again with agile export")
-        not_joint_targets = [f"{a['name']} ({a['type']})" for a in descriptor["actions"] if "offset" not in a]
-        if not_joint_targets:
-            raise AgileError(f"{args.io}: sim2mujoco runs policies whose actions are joint targets (action · scale + "
-                             f"offset); these action terms are not: {not_joint_targets}")
-
-        def make_policy(robot):
-            return DescriptorPolicy(descriptor, robot, args.policy)
-    try:  # --command and --height_ramp checked against the policy's command before anything runs
-        make_commands(next(iter(descriptor["commands"].values())), np.random.default_rng(args.seed),
-                      descriptor["control_dt_s"], args.command, args.height_ramp)
-    except ValueError as err:
-        raise AgileError(str(err))
-    mjcf = args.mjcf or default_mjcf(descriptor)
-    video = MujocoVideo(args.video, mjcf, round(1.0 / descriptor["control_dt_s"])) if args.video else None
-    try:
-        metrics = run(descriptor, mjcf, make_policy, args.episodes, args.duration_s, args.command, args.seed,
-                      on_frame=video, height_ramp=args.height_ramp)
-    finally:
-        if video is not None:
-            video.close()
-            print(f"[sim2mujoco] video ({video.video.frames} frames) written to {args.video}")
-    metrics.update({"io_descriptor": args.io, "policy": args.policy, "bundle": args.bundle, "mjcf": mjcf, "command": args.command,
-                    "duration_s": args.duration_s})
+    metrics = sim2mujoco(bundle=args.bundle, io=args.io, policy=args.policy, mjcf=args.mjcf, episodes=args.episodes,
+                         duration_s=args.duration_s, command=args.command, height_ramp=args.height_ramp,
+                         seed=args.seed, video=args.video)
     print(json.dumps(metrics, indent=2))
     if args.out:
         Path(args.out).write_text(json.dumps(metrics, indent=2))

@@ -15,7 +15,10 @@ COMMANDS = ("train", "eval", "play", "export", "benchmark")
 class TaskRuntime:
     """The function ("module:function", imported when used) each command runs for the tasks of a kind: train takes
     the run's `TrainOptions` and its rank (None: not distributed) and returns a `TrainResult`; the others take the
-    command's parsed arguments."""
+    command's options and return what they measured or wrote: eval an `agile.run.eval.EvalOptions` (the metrics, or a
+    sweep's result), play a `agile.run.play.PlayOptions` (what was played), export an
+    `agile.run.export.ExportOptions` ({kind or group: path}), benchmark an `agile.run.benchmark.BenchmarkOptions`
+    (a row per env count)."""
     train: str
     eval: str
     play: str
@@ -31,9 +34,11 @@ class TaskRuntime:
 SINGLE_AGENT = TaskRuntime(train="agile.run.train:train_single_agent", eval="agile.run.eval:eval_single_agent",
                            play="agile.run.play:play_single_agent", export="agile.run.export:export_single_agent",
                            benchmark="agile.run.benchmark:benchmark_single_agent")
-MULTI_AGENT = TaskRuntime(train="agile.run.multi_agent:train", eval="agile.run.multi_agent:eval_main",
-                          play="agile.run.multi_agent:play_main", export="agile.run.multi_agent:export_main",
-                          benchmark="agile.run.multi_agent_benchmark:benchmark_main")
+MULTI_AGENT = TaskRuntime(train="agile.run.multi_agent:train_multi_agent",
+                          eval="agile.run.multi_agent:eval_multi_agent",
+                          play="agile.run.multi_agent:play_multi_agent",
+                          export="agile.run.multi_agent:export_multi_agent",
+                          benchmark="agile.run.multi_agent_benchmark:benchmark_multi_agent")
 RUNTIMES = {"multi_agent": MULTI_AGENT}
 """The kinds that run otherwise than a single-agent task."""
 

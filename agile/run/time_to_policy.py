@@ -15,11 +15,13 @@ Evaluating beside the training on its GPU slows it (two processes take turns on 
 against 0.52 s alone, G1 on an H100). `--eval_device cuda:N` evaluates on another GPU of the host;
 `--evaluate_after_training` trains for the whole budget undisturbed, then evaluates the checkpoints in order: the
 time to policy is then when the first one that meets the criteria was written, as a training without evaluations
-would have reached it.
+would have reached it. From Python: `time_to_policy(task=..., budget_s=..., out=..., ...)` returns what <out>.json
+holds.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -33,25 +35,46 @@ from pathlib import Path
 from agile.run.arguments import command
 from agile.run import arguments, task_setup
 from agile.errors import AgileError
+from agile.run.time_to_policy_plots import CURVE_METRICS, outcome, plot
 
 FIRST_ITERATION_MARK = "Learning iteration"
 """What rsl-rl's log prints for every iteration (the training runs with --progress log)."""
-CURVE_METRICS = ("fall_rate", "lin_vel_error_mps", "ang_vel_error_radps", "base_height_error_m")
 
 
-def training_command(args, log_root: str) -> list[str]:
-    """The child process: `agile train` on one device, or torchrun over --gpus GPUs."""
-    train_args = ["--task", args.task, "--max_iterations", str(args.max_iterations), "--log_root", log_root,
-                  "--progress", "log", f"agent.save_interval={args.save_interval}", *args.overrides]
-    if args.num_envs is not None:
-        train_args += ["--num_envs", str(args.num_envs)]
-    if args.seed is not None:
-        train_args += ["--seed", str(args.seed)]
-    if args.gpus > 1:  # ranks on the host's first GPUs, or on the CPU (gloo) where the run is on the CPU
-        cpu_ranks = ["--device", "cpu"] if args.device == "cpu" else []
-        return [sys.executable, "-m", "torch.distributed.run", "--standalone", f"--nproc_per_node={args.gpus}",
+@dataclasses.dataclass(frozen=True)
+class TimeToPolicyOptions:
+    """One timed run (`time_to_policy`'s keyword arguments, checked, for one seed; see them for each field):
+    `device` is resolved, `overrides` hold the recipe's first, then the given ones."""
+    task: str
+    budget_s: float
+    device: str
+    seed: int | None = None
+    gpus: int = 1
+    num_envs: int | None = None
+    save_interval: int = 50
+    max_iterations: int = 100_000
+    eval_num_envs: int | None = None
+    eval_device: str | None = None
+    eval_episode_length_s: float | None = None
+    evaluate_after_training: bool = False
+    criteria: dict | None = None
+    recipe: str | None = None
+    overrides: tuple = ()
+
+
+def training_command(options: TimeToPolicyOptions, log_root: str) -> list[str]:
+    """The child process: `agile train` on one device, or torchrun over `gpus` GPUs."""
+    train_args = ["--task", options.task, "--max_iterations", str(options.max_iterations), "--log_root", log_root,
+                  "--progress", "log", f"agent.save_interval={options.save_interval}", *options.overrides]
+    if options.num_envs is not None:
+        train_args += ["--num_envs", str(options.num_envs)]
+    if options.seed is not None:
+        train_args += ["--seed", str(options.seed)]
+    if options.gpus > 1:  # ranks on the host's first GPUs, or on the CPU (gloo) where the run is on the CPU
+        cpu_ranks = ["--device", "cpu"] if options.device == "cpu" else []
+        return [sys.executable, "-m", "torch.distributed.run", "--standalone", f"--nproc_per_node={options.gpus}",
                 "-m", "agile.run.train", *train_args, "--distributed", *cpu_ranks]
-    return [sys.executable, "-m", "agile.run.train", *train_args, "--device", args.device]
+    return [sys.executable, "-m", "agile.run.train", *train_args, "--device", options.device]
 
 
 def all_checkpoints(log_root: str) -> list[tuple[int, Path]]:
@@ -98,21 +121,26 @@ def evaluator(task: str, overrides: list[str], device: str, num_envs: int | None
     return run
 
 
-def criteria_of(args) -> tuple[dict, dict]:
-    """(maxima, minima): the task's criteria from the catalogue, or the maxima given as --criterion NAME=MAX."""
-    from agile.tasks.catalogue import task_entry
-
-    if not args.criterion:
-        entry = task_entry(args.task)
-        return dict(entry.criteria), dict(entry.minima)
+def parse_criteria(specs: list[str]) -> dict[str, float]:
+    """{name: maximum} of the command line's --criterion NAME=MAX."""
     criteria = {}
-    for spec in args.criterion:
+    for spec in specs:
         name, _, value = spec.partition("=")
         try:
             criteria[name] = float(value)
         except ValueError:
             raise AgileError(f"--criterion takes NAME=MAXIMUM, e.g. fall_rate=0.05; got '{spec}'")
-    return criteria, {}
+    return criteria
+
+
+def criteria_of(options: TimeToPolicyOptions) -> tuple[dict, dict]:
+    """(maxima, minima): the task's criteria from the catalogue, or the maxima `criteria` gives (no minima then)."""
+    from agile.tasks.catalogue import task_entry
+
+    if not options.criteria:
+        entry = task_entry(options.task)
+        return dict(entry.criteria), dict(entry.minima)
+    return dict(options.criteria), {}
 
 
 def wait_for_first_iteration(log_path: Path, process, start: float, budget_s: float) -> float | None:
@@ -127,8 +155,8 @@ def wait_for_first_iteration(log_path: Path, process, start: float, budget_s: fl
 class CheckpointJudge:
     """Evaluates checkpoints against the criteria (the evaluation env built at the first) and keeps the rows."""
 
-    def __init__(self, args, criteria: dict, minima: dict, device: str, start_epoch: float):
-        self.args, self.criteria, self.minima, self.device = args, criteria, minima, device
+    def __init__(self, options: TimeToPolicyOptions, criteria: dict, minima: dict, device: str, start_epoch: float):
+        self.options, self.criteria, self.minima, self.device = options, criteria, minima, device
         self.start_epoch = start_epoch
         self.evaluate = None
         self.rows: list[dict] = []
@@ -138,9 +166,9 @@ class CheckpointJudge:
 
         written_s = path.stat().st_mtime - self.start_epoch  # when the training wrote it
         if self.evaluate is None:
-            args = self.args
-            self.evaluate = evaluator(args.task, args.overrides, self.device, args.eval_num_envs,
-                                      args.eval_episode_length_s)
+            options = self.options
+            self.evaluate = evaluator(options.task, list(options.overrides), self.device, options.eval_num_envs,
+                                      options.eval_episode_length_s)
         metrics = self.evaluate(path)
         missed = missed_criteria(metrics, self.criteria, self.minima)
         row = {"iteration": iteration, "wall_s": round(written_s, 1), "met": not missed, "missed": missed,
@@ -154,43 +182,47 @@ class CheckpointJudge:
         return row
 
 
-def run_until_criteria(args, criteria: dict, minima: dict, device: str, log_root: str, log_path: Path) -> dict:
+def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Path) -> dict:
+    """Train in a child process (its output in `log_path`, its run under `log_root`) until a checkpoint meets the
+    criteria or the budget is spent; the run's result (what <out>.json holds, less the device and commit)."""
+    criteria, minima = criteria_of(options)
     start, start_epoch = time.monotonic(), time.time()
     with open(log_path, "w") as log:
-        process = subprocess.Popen(training_command(args, log_root), stdout=log, stderr=subprocess.STDOUT,
+        process = subprocess.Popen(training_command(options, log_root), stdout=log, stderr=subprocess.STDOUT,
                                    start_new_session=True)
-    first_iteration_s = wait_for_first_iteration(log_path, process, start, args.budget_s)
-    judge = CheckpointJudge(args, criteria, minima, args.eval_device or device, start_epoch)
+    first_iteration_s = wait_for_first_iteration(log_path, process, start, options.budget_s)
+    judge = CheckpointJudge(options, criteria, minima, options.eval_device or options.device, start_epoch)
     met_at = None
     try:
-        if args.evaluate_after_training:
-            while time.monotonic() - start < args.budget_s and process.poll() is None:
+        if options.evaluate_after_training:
+            while time.monotonic() - start < options.budget_s and process.poll() is None:
                 time.sleep(1.0)
         else:
-            met_at = judge_as_they_come(args, judge, process, start, log_root)
+            met_at = judge_as_they_come(options, judge, process, start, log_root)
     finally:
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGTERM)
             process.wait(timeout=60)
-    if args.evaluate_after_training:
+    if options.evaluate_after_training:
         for iteration, path in all_checkpoints(log_root):
             if judge(iteration, path)["met"]:
                 met_at = judge.rows[-1]
                 break
-    return {"task": args.task, "seed": args.seed, "gpus": args.gpus, "num_envs_per_gpu": args.num_envs,
-            "budget_s": args.budget_s,
-            "recipe": args.recipe, "overrides": list(args.overrides),  # the recipe's first, then the given ones
-            "evaluated": "after the training" if args.evaluate_after_training else f"beside it, on {judge.device}",
+    return {"task": options.task, "seed": options.seed, "gpus": options.gpus, "num_envs_per_gpu": options.num_envs,
+            "budget_s": options.budget_s,
+            "recipe": options.recipe, "overrides": list(options.overrides),  # the recipe's first, then the given ones
+            "evaluated": "after the training" if options.evaluate_after_training else f"beside it, on {judge.device}",
             "criteria": criteria, "minima": minima,
             "first_iteration_s": None if first_iteration_s is None else round(first_iteration_s, 1),
             "time_to_policy_s": met_at["wall_s"] if met_at else None,
             "iteration_at_criteria": met_at["iteration"] if met_at else None, "evaluations": judge.rows}
 
 
-def judge_as_they_come(args, judge: CheckpointJudge, process, start: float, log_root: str) -> dict | None:
+def judge_as_they_come(options: TimeToPolicyOptions, judge: CheckpointJudge, process, start: float,
+                       log_root: str) -> dict | None:
     """Evaluate the newest checkpoint whenever a new one appears; the row of the first that meets the criteria."""
     evaluated = -1
-    while time.monotonic() - start < args.budget_s:
+    while time.monotonic() - start < options.budget_s:
         newest = newest_checkpoint(log_root)
         if newest is None or newest[0] == evaluated:
             if process.poll() is not None:
@@ -205,13 +237,6 @@ def judge_as_they_come(args, judge: CheckpointJudge, process, start: float, log_
     return None
 
 
-def outcome(result: dict) -> str:
-    """The run's verdict in words, for the plot's title."""
-    if result["time_to_policy_s"] is None:
-        return f"criteria not met within {result['budget_s']:.0f} s"
-    return f"time to policy {result['time_to_policy_s']:.0f} s (iteration {result['iteration_at_criteria']})"
-
-
 def seed_summary(results: list[dict]) -> dict:
     """Over one run per seed: each seed's time to policy, the median and the worst, a run that missed its criteria
     counted as its budget (and named in `missed_seeds`)."""
@@ -222,35 +247,116 @@ def seed_summary(results: list[dict]) -> dict:
             "met": sum(r["time_to_policy_s"] is not None for r in results)}
 
 
-def plot(results: list[dict], path: str, title: str) -> bool:
-    """The curve of each evaluated metric against wall time into `path`, one line per run (seed); False (no file)
-    when no checkpoint was evaluated (none written within the budget)."""
-    metrics = [m for m in CURVE_METRICS if any(m in row for r in results for row in r["evaluations"])]
-    if not metrics:
-        return False
-    import matplotlib
+def check_count(value, field: str, minimum: int = 1) -> None:
+    if value is not None and value < minimum:
+        raise AgileError(f"{field} must be at least {minimum}, got {value}")
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(metrics), figsize=(4.2 * len(metrics), 3.4), squeeze=False)
-    for ax, metric in zip(axes[0], metrics):
-        for result in results:
-            rows = [r for r in result["evaluations"] if metric in r]
-            line, = ax.plot([r["wall_s"] for r in rows], [r[metric] for r in rows], marker="o", ms=3,
-                            label=f"seed {result['seed']}: {outcome(result)}")
-            if result["first_iteration_s"] is not None:
-                ax.axvline(result["first_iteration_s"], color=line.get_color(), ls=":")
-        if metric in results[0]["criteria"]:
-            ax.axhline(results[0]["criteria"][metric], color="r", label="maximum")
-        ax.set_xlabel("wall time since start [s]")
-        ax.set_title(metric)
-    axes[0][0].legend(fontsize=6)
-    fig.suptitle(f"{title} ({results[0]['gpus']} GPU(s); dotted: first iteration)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return True
+def time_to_policy_options(*, task: str, budget_s: float, seed: int | None = None, seeds=None, gpus: int = 1,
+                           num_envs: int | None = None, device: str | None = None, save_interval: int = 50,
+                           max_iterations: int = 100_000, eval_num_envs: int | None = None,
+                           eval_device: str | None = None, eval_episode_length_s: float | None = None,
+                           evaluate_after_training: bool = False, criteria: dict | None = None,
+                           recipe: str | None = None, overrides=()) -> tuple[TimeToPolicyOptions, list]:
+    """The checked options of `time_to_policy` (see it) and the seeds to run, one after another (`[seed]` without
+    `seeds`); raises AgileError naming the field for what it refuses, before anything runs."""
+    from agile.run.recipes import RECIPES
+
+    task_setup.check_task(task)
+    if not budget_s > 0:
+        raise AgileError(f"budget_s must be positive, got {budget_s}")
+    for value, field in ((gpus, "gpus"), (save_interval, "save_interval"), (max_iterations, "max_iterations"),
+                         (num_envs, "num_envs"), (eval_num_envs, "eval_num_envs")):
+        check_count(value, field)
+    if eval_episode_length_s is not None and not eval_episode_length_s > 0:
+        raise AgileError(f"eval_episode_length_s must be positive (or None: the task's), got {eval_episode_length_s}")
+    if seed is not None and seeds is not None:
+        raise AgileError("seed and seeds: give one (seeds: one run per seed)")
+    if seeds is not None and len(seeds) == 0:
+        raise AgileError("seeds must name at least one seed (or be None: one run)")
+    if recipe is not None and recipe not in RECIPES:
+        raise AgileError(f"recipe must be one of {', '.join(sorted(RECIPES))} (or None), got {recipe!r}")
+    for name, maximum in (criteria or {}).items():
+        if not isinstance(maximum, (int, float)):
+            raise AgileError(f"criteria: {{metric: maximum}}, a number each; {name} is {maximum!r}")
+    # torchrun's ranks take the host's first GPUs, or CPU processes
+    device, _ = task_setup.resolve_device(device if gpus == 1 or device == "cpu" else "cuda:0")
+    if eval_device is not None:
+        eval_device, _ = task_setup.resolve_device(eval_device)
+    options = TimeToPolicyOptions(
+        task=task, budget_s=budget_s, device=device, seed=seed, gpus=gpus, num_envs=num_envs,
+        save_interval=save_interval, max_iterations=max_iterations, eval_num_envs=eval_num_envs,
+        eval_device=eval_device, eval_episode_length_s=eval_episode_length_s,
+        evaluate_after_training=evaluate_after_training, criteria=dict(criteria) if criteria else None,
+        recipe=recipe, overrides=(*RECIPES.get(recipe, ()), *overrides))
+    return options, list(seeds) if seeds is not None else [seed]
+
+
+def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = None, seeds=None, gpus: int = 1,
+                   num_envs: int | None = None, device: str | None = None, save_interval: int = 50,
+                   max_iterations: int = 100_000, eval_num_envs: int | None = None, eval_device: str | None = None,
+                   eval_episode_length_s: float | None = None, evaluate_after_training: bool = False,
+                   criteria: dict | None = None, recipe: str | None = None, overrides=()) -> dict:
+    """Train `task` from scratch for `budget_s` seconds of wall time (a child process: `agile train`, or torchrun over
+    `gpus` GPUs of this host, or CPU ranks with `device` "cpu"; `num_envs` per GPU, a checkpoint every `save_interval`
+    iterations) and evaluate its checkpoints against `criteria` ({metric: maximum}; None: the task's, from
+    agile/tasks/catalogue.py) until one meets them: the newest whenever one appears (on `eval_device`, default the
+    training's), or, with `evaluate_after_training`, in order once the budget is spent. `eval_num_envs`,
+    `eval_episode_length_s`: the evaluation setting (default: the task's). `recipe` (agile.run.recipes): its
+    overrides before `overrides`. `seeds`: one run per seed, one after another, instead of one with `seed`.
+
+    Writes <out>.json (the result), <out>.log (the training's output) and, with matplotlib, <out>.png (the curve);
+    with `seeds`, <out>_seed<N>.json and .log per run and the summary over them in <out>.json. Returns what <out>.json
+    holds: the run's result ("time_to_policy_s" None where the criteria were not met), or the summary. Raises
+    AgileError naming the field for what it refuses, before anything runs."""
+    from agile.run.eval_all import source_commit
+
+    options, seed_list = time_to_policy_options(
+        task=task, budget_s=budget_s, seed=seed, seeds=seeds, gpus=gpus, num_envs=num_envs, device=device,
+        save_interval=save_interval, max_iterations=max_iterations, eval_num_envs=eval_num_envs,
+        eval_device=eval_device, eval_episode_length_s=eval_episode_length_s,
+        evaluate_after_training=evaluate_after_training, criteria=criteria, recipe=recipe, overrides=overrides)
+    task_setup.check_writable(f"{out}.json", "out")
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    commit = source_commit()
+    results = []
+    for run_seed in seed_list:
+        run_options = dataclasses.replace(options, seed=run_seed)
+        run_out = out if seeds is None else f"{out}_seed{run_seed}"
+        with tempfile.TemporaryDirectory(prefix="agile_time_to_policy_") as log_root:
+            result = run_until_criteria(run_options, log_root, Path(f"{run_out}.log"))
+        result.update(device=options.device, commit=commit)
+        Path(f"{run_out}.json").write_text(json.dumps(result, indent=2))
+        met = result["time_to_policy_s"]
+        print(f"[agile] {task}, seed {run_seed}: " + (
+            f"criteria met at {met} s (iteration {result['iteration_at_criteria']})" if met is not None
+            else f"criteria not met within {budget_s:g} s") + f"; first iteration at "
+              f"{result['first_iteration_s']} s; {run_out}.json", flush=True)
+        results.append(result)
+    written = results[0]
+    title = f"{task}: {outcome(results[0])}"
+    if seeds is not None:
+        written = {"task": task, "device": options.device, "commit": commit, "budget_s": budget_s, "gpus": gpus,
+                   "num_envs_per_gpu": num_envs, "recipe": recipe, "overrides": list(options.overrides),
+                   **seed_summary(results), "runs": [f"{Path(out).name}_seed{r['seed']}.json" for r in results]}
+        Path(f"{out}.json").write_text(json.dumps(written, indent=2))
+        title = (f"{task}: {written['met']} of {len(results)} seeds met, median {written['median_s']:.0f} s, "
+                 f"worst {written['worst_s']:.0f} s")
+        print(f"[agile] {title} (a miss counts as the budget); {out}.json")
+    try:
+        if not plot(results, f"{out}.png", title):
+            print(f"[agile] no curve: no checkpoint was written within {budget_s:g} s (every "
+                  f"{save_interval} iterations; --save_interval for more)")
+    except ImportError:
+        print("[agile] no plot: matplotlib is missing (pip install 'agile[plot]')")
+    return written
+
+
+def criteria_met(result: dict) -> bool:
+    """Whether `time_to_policy`'s result (one run's, or the summary over seeds) met the criteria in every run."""
+    if "missed_seeds" in result:
+        return not result["missed_seeds"]
+    return result["time_to_policy_s"] is not None
 
 
 @command
@@ -284,50 +390,14 @@ def main(argv=None) -> int:
     parser.add_argument("overrides", nargs="*", help=arguments.OVERRIDE_HELP)
     arguments.add_recipe_arg(parser)
     args = arguments.parse(parser, argv)
-    if args.gpus < 1 or args.save_interval < 1 or not args.budget_s > 0:
-        raise AgileError("--gpus and --save_interval must be at least 1 and --budget_s positive")
-    device, _ = task_setup.resolve_device(args.device if args.gpus == 1 or args.device == "cpu" else "cuda:0")
-    args.device = device
-    if args.eval_device is not None:
-        args.eval_device, _ = task_setup.resolve_device(args.eval_device)
-    criteria, minima = criteria_of(args)
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    from agile.run.eval_all import source_commit
-
-    commit = source_commit()
-    results = []
-    for seed in args.seeds or [args.seed]:
-        args.seed = seed
-        out = args.out if args.seeds is None else f"{args.out}_seed{seed}"
-        with tempfile.TemporaryDirectory(prefix="agile_time_to_policy_") as log_root:
-            result = run_until_criteria(args, criteria, minima, device, log_root, Path(f"{out}.log"))
-        result.update(device=device, commit=commit)
-        Path(f"{out}.json").write_text(json.dumps(result, indent=2))
-        met = result["time_to_policy_s"]
-        print(f"[agile] {args.task}, seed {seed}: " + (
-            f"criteria met at {met} s (iteration {result['iteration_at_criteria']})" if met is not None
-            else f"criteria not met within {args.budget_s:g} s") + f"; first iteration at "
-              f"{result['first_iteration_s']} s; {out}.json", flush=True)
-        results.append(result)
-    title = args.task
-    if args.seeds is not None:
-        summary = {"task": args.task, "device": device, "commit": commit, "budget_s": args.budget_s,
-                   "gpus": args.gpus, "num_envs_per_gpu": args.num_envs, "recipe": args.recipe,
-                   "overrides": list(args.overrides), **seed_summary(results),
-                   "runs": [f"{Path(args.out).name}_seed{r['seed']}.json" for r in results]}
-        Path(f"{args.out}.json").write_text(json.dumps(summary, indent=2))
-        title = (f"{args.task}: {summary['met']} of {len(results)} seeds met, median {summary['median_s']:.0f} s, "
-                 f"worst {summary['worst_s']:.0f} s")
-        print(f"[agile] {title} (a miss counts as the budget); {args.out}.json")
-    else:
-        title = f"{args.task}: {outcome(results[0])}"
-    try:
-        if not plot(results, f"{args.out}.png", title):
-            print(f"[agile] no curve: no checkpoint was written within {args.budget_s:g} s (every "
-                  f"{args.save_interval} iterations; --save_interval for more)")
-    except ImportError:
-        print("[agile] no plot: matplotlib is missing (pip install 'agile[plot]')")
-    return 0 if all(r["time_to_policy_s"] is not None for r in results) else 1
+    result = time_to_policy(
+        task=args.task, budget_s=args.budget_s, out=args.out, seed=args.seed, seeds=args.seeds, gpus=args.gpus,
+        num_envs=args.num_envs, device=args.device, save_interval=args.save_interval,
+        max_iterations=args.max_iterations, eval_num_envs=args.eval_num_envs, eval_device=args.eval_device,
+        eval_episode_length_s=args.eval_episode_length_s, evaluate_after_training=args.evaluate_after_training,
+        criteria=parse_criteria(args.criterion) if args.criterion else None, recipe=args.recipe,
+        overrides=arguments.given_overrides(args))
+    return 0 if criteria_met(result) else 1
 
 
 if __name__ == "__main__":

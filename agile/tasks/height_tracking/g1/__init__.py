@@ -10,4 +10,4 @@ register_task("HeightTracking-G1-v0", f"{__name__}.height_tracking_env_cfg:G1Hei
               f"{__name__}.agents.rsl_rl_cfg:g1_height_tracking_ppo_runner_cfg",
               eval_criteria={"height/height_error_m": 0.05, "height_error_m_by_height_m": 0.05},
               eval_settings={"num_envs": 1024, "episode_length_s": 15.0},
-              startup_dataset="agile.run.env:collect_fallen_states_anew")
+              startup_dataset="agile.tasks.stand_up.fallen_states.startup:collect_fallen_states_anew")

@@ -1,0 +1,45 @@
+"""The curve of a time-to-policy run (`agile.run.time_to_policy`): its evaluations against wall time, one line per
+seed, and its verdict in words."""
+
+from __future__ import annotations
+
+CURVE_METRICS = ("fall_rate", "lin_vel_error_mps", "ang_vel_error_radps", "base_height_error_m")
+"""The metrics each evaluation row keeps and the curve draws, those the task measures."""
+
+
+def outcome(result: dict) -> str:
+    """The run's verdict in words, for the plot's title."""
+    if result["time_to_policy_s"] is None:
+        return f"criteria not met within {result['budget_s']:.0f} s"
+    return f"time to policy {result['time_to_policy_s']:.0f} s (iteration {result['iteration_at_criteria']})"
+
+
+def plot(results: list[dict], path: str, title: str) -> bool:
+    """The curve of each evaluated metric against wall time into `path`, one line per run (seed); False (no file)
+    when no checkpoint was evaluated (none written within the budget)."""
+    metrics = [m for m in CURVE_METRICS if any(m in row for r in results for row in r["evaluations"])]
+    if not metrics:
+        return False
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(metrics), figsize=(4.2 * len(metrics), 3.4), squeeze=False)
+    for ax, metric in zip(axes[0], metrics):
+        for result in results:
+            rows = [r for r in result["evaluations"] if metric in r]
+            line, = ax.plot([r["wall_s"] for r in rows], [r[metric] for r in rows], marker="o", ms=3,
+                            label=f"seed {result['seed']}: {outcome(result)}")
+            if result["first_iteration_s"] is not None:
+                ax.axvline(result["first_iteration_s"], color=line.get_color(), ls=":")
+        if metric in results[0]["criteria"]:
+            ax.axhline(results[0]["criteria"][metric], color="r", label="maximum")
+        ax.set_xlabel("wall time since start [s]")
+        ax.set_title(metric)
+    axes[0][0].legend(fontsize=6)
+    fig.suptitle(f"{title} ({results[0]['gpus']} GPU(s); dotted: first iteration)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return True
