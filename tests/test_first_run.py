@@ -49,11 +49,18 @@ def test_an_output_path_that_cannot_be_written_is_refused_in_one_line_before_the
         assert "building" not in out and "Traceback" not in err
 
 
+def interruptible() -> None:
+    """In the child before it starts: SIGINT as a terminal delivers it. Under a shell's background job (a CI runner's
+    `cmd &`) SIGINT is ignored, and Python keeps an ignored SIGINT ignored: the Ctrl-C would never arrive."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_ctrl_c_in_a_training_saves_a_checkpoint_and_ends_in_a_line(tmp_path):
     process = subprocess.Popen(
         [sys.executable, "-m", "agile", "train", "--task", "Velocity-T1-v0", "--device", "cpu", "--num_envs", "2",
          "--max_iterations", "1000", "--log_root", str(tmp_path), *FLAT_GROUND_ARGS],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV, cwd=tmp_path)
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV, cwd=tmp_path,
+        preexec_fn=interruptible)
     lines = []
     deadline = time.monotonic() + 300
     for line in process.stdout:  # the first env step is timed and said: the training loop runs
