@@ -39,8 +39,11 @@ def cmd_list(_args) -> None:
     """The registry only: no config, env or kernel is loaded for a listing."""
     import agile.tasks
 
-    rows = [(task, agile.tasks.task_kind(task), ",".join(p.name for p in agile.tasks.shipped_policy_files(task)) or "-")
-            for task in agile.tasks.registered_tasks()]
+    def shipped(task: str) -> str:
+        files = agile.tasks.shipped_policy_files(task)
+        return ",".join(str(p.relative_to(agile.tasks.PRETRAINED_DIR)) for p in files) or "-"
+
+    rows = [(task, agile.tasks.task_kind(task), shipped(task)) for task in agile.tasks.registered_tasks()]
     width = max(len(task) for task, _, _ in rows)
     print(f"{'task':<{width}}  {'kind':<11}  shipped policy")
     for task, kind, policies in rows:

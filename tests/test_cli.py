@@ -11,7 +11,7 @@ from commands import run_main
 import agile.tasks
 from agile.cli import main as cli_main
 from agile.rl import DistillationRunnerCfg
-from agile.tasks.catalogue import catalogue, evaluated_tasks, missed_criteria
+from agile.tasks.catalogue import DEFAULT_CRITERIA, catalogue, evaluated_tasks, missed_criteria
 from agile.tasks.describe import MISSING, config_diff, task_config_tree
 
 T1, G1 = "Velocity-T1-v0", "Velocity-G1-History-v0"
@@ -37,10 +37,13 @@ def test_catalogue_kinds_come_from_the_registry():
     # a height command adds the height criterion; the plain velocity tasks have none
     assert "base_height_error_m" in entries["Velocity-Height-G1-v0"].criteria
     assert "base_height_error_m" not in entries[T1].criteria
-    # every task with a policy file of its own (a second ID sharing the file is evaluated under the file's name)
+    # every task with a policy of its own (a second ID sharing the file is evaluated under the file's name), a
+    # multi-agent task's folder of group checkpoints included; a multi-agent task's criteria bound each agent
     assert {e.task for e in evaluated_tasks()} == {
         t for t, e in entries.items()
-        if e.kind in ("trainable", "distilled") and e.policy is not None and e.policy.stem.split(".")[0] == t}
+        if e.kind in ("trainable", "distilled", "multi_agent") and e.policy is not None
+        and e.policy.stem.split(".")[0] == t}
+    assert entries["MultiRate-G1-T1-Velocity-v0"].criteria == DEFAULT_CRITERIA
     assert "Velocity-Height-G1-v0" not in {e.task for e in evaluated_tasks()}
     assert {T1, G1, "MotionTracking-G1-v0"} <= {e.task for e in evaluated_tasks()}
     assert "Tracking-Flat-G1-v0" not in {e.task for e in evaluated_tasks()}

@@ -23,9 +23,16 @@ def test_eval_all_tiny_cpu_setting(tmp_path, task):
                                        "--tasks", task, "--out", out)
     assert code == 0, stdout[-2000:] + stderr[-2000:]
     report = (out / "report.md").read_text()
-    assert "Criteria not checked" in report and f"| {task} |" in report
     metrics = json.loads((out / f"{task}.json").read_text())
+    assert "Criteria not checked" in report
     assert metrics["criteria_checked"] is False and metrics["device"] == "cpu" and metrics["num_envs"] == 2
+    if metrics["kind"] == "multi_agent":  # a row per agent, each agent's metrics against the task's criteria
+        assert metrics["agents"] and all(f"| {task} {agent} |" in report for agent in metrics["agents"])
+        for agent_metrics in metrics["agents"].values():
+            assert agent_metrics["episodes"] == 2 and set(metrics["criteria"]) <= set(agent_metrics)
+            assert all(isinstance(v, float) and v == v for v in agent_metrics["reward_per_step"].values())
+        return
+    assert f"| {task} |" in report
     assert metrics["episodes"] == 2  # two envs, one 1 s episode each
     # every criterion was measured (episode metrics such as a motion's body error among episode_metrics, a bound on
     # each commanded band among the error breakdowns)

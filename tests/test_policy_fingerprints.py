@@ -76,6 +76,48 @@ def test_the_check_names_changed_physics(t1_recording):
     assert divergence is not None and divergence.startswith("step 1: state/joint_q"), divergence
 
 
+MULTI_AGENT_TASK = "Shared-Go1-Velocity-v0"
+
+
+@pytest.fixture(scope="module")
+def multi_agent_policy(tmp_path_factory):
+    """A multi-agent task's policy folder as agile ships one (<task>/<group>/model_<it>.pt), its group at its initial
+    weights: what the fingerprint of a multi-agent policy records does not depend on training."""
+    import agile.tasks
+    from agile.marl.runner import MultiAgentRunner
+    from agile.run.multi_agent import evaluation_cfg, make_world
+
+    folder = tmp_path_factory.mktemp("policy") / MULTI_AGENT_TASK
+    env_cfg, agent_cfg = agile.tasks.load_cfgs(MULTI_AGENT_TASK)
+    env_cfg.num_envs = 2
+    world = make_world(MULTI_AGENT_TASK, evaluation_cfg(env_cfg, pushes=True), "cpu")
+    runner = MultiAgentRunner(world, agent_cfg, None, "cpu")
+    for group, group_runner in runner.runners.items():
+        (folder / group).mkdir(parents=True)
+        group_runner.save(str(folder / group / "model_0.pt"))
+    world.close()
+    return fingerprint.ShippedPolicy(file=folder, task=MULTI_AGENT_TASK, overrides=())
+
+
+def test_a_multi_agent_replay_names_the_agent_and_term_that_moved(multi_agent_policy):
+    """A multi-agent policy is fingerprinted per agent: its replay matches its recording, and one agent's reward term
+    reweighted is named with its agent at the first step while the other agents' quantities (and the world's state)
+    still match."""
+    recording = fingerprint.record(multi_agent_policy, num_steps=6)
+    assert first_divergence(recording, replay(multi_agent_policy, recording)) is None
+    agents = sorted(name[len("actions/"):] for name in recording if name.startswith("actions/"))
+    assert agents == ["go1_a", "go1_b"] and recording["actions/go1_a"].shape == (7, fingerprint.NUM_ENVS, 12)
+    reweighted = replay(multi_agent_policy, recording, num_steps=3,
+                        extra_overrides=("env.agents.go1_a.rewards.track_lin_vel_xy_exp.weight=0.5",))
+    divergence = first_divergence(recording, reweighted)
+    assert divergence is not None and divergence.startswith("step 1: reward/go1_a/track_lin_vel_xy_exp"), divergence
+
+    def others(quantities):  # every quantity not of go1_a
+        return {name: values for name, values in quantities.items() if "/go1_a" not in name}
+
+    assert first_divergence(others(recording), others(reweighted)) is None
+
+
 def test_the_replay_holds_when_torch_rounds_as_another_cpu_would():
     """The check is portable: with torch's kernels at another instruction-set level and MKL's reproducible mode
     (read when torch loads, so in a fresh process), each step's matrix products and term math round differently, as

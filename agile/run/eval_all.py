@@ -1,5 +1,6 @@
-"""Evaluate every task with a shipped policy (trainable or distilled, from the task catalogue) and write one
-JSON per task, report.md and, where matplotlib is installed, PNG plots into --out.
+"""Evaluate every task with a shipped policy (trainable, distilled or multi-agent, from the task catalogue) and write
+one JSON per task, report.md and, where matplotlib is installed, PNG plots into --out. A multi-agent task's criteria
+bound each of its agents (a row per agent in the report).
 
     agile eval_all --out eval_report                  # GPU: each task's eval settings and criteria
     agile eval_all --device cpu --num_envs 2 --episode_length_s 1 --out /tmp/eval   # tiny CPU run
@@ -74,23 +75,53 @@ def evaluate_task(entry, *, device: str | None = None, seed: int | None = None, 
     overrides = list(settings.pop("overrides", []))  # the task's evaluation setting, e.g. a motion from its start
     shipped = task_setup.shipped_policy(task=entry.task, overrides=overrides)  # its training conditions go first
     checkpoint = shipped.path
+    if entry.kind == "multi_agent":
+        from agile.run.multi_agent import run_world
+
+        metrics = run_world(task=entry.task, checkpoint=checkpoint, num_envs=settings["num_envs"], device=device,
+                            seed=seed, overrides=shipped.overrides, episodes=settings["num_episodes"],
+                            episode_length_s=settings["episode_length_s"])
+        device = metrics["device"]
+        metrics = {"agents": metrics["agents"], "group_checkpoints": metrics["checkpoints"]}
+    else:
+        metrics, device = evaluate_single_agent(entry, checkpoint, shipped.overrides, device=device, seed=seed,
+                                                settings=settings)
+    full_setting = (device != "cpu" and all(settings[k] >= entry.eval_settings[k] for k in settings))
+    settings["overrides"] = overrides
+    return {"task": entry.task, "kind": entry.kind, "checkpoint": checkpoint, "device": device,
+            "device_name": device_name(device), "commit": source_commit(), **settings,
+            "criteria": entry.criteria, "minima": entry.minima, "criteria_checked": full_setting, **metrics}
+
+
+def evaluate_single_agent(entry, checkpoint: str, overrides: list[str], *, device: str | None, seed: int | None,
+                          settings: dict) -> tuple[dict, str]:
+    """(the metrics of the policy `checkpoint` run in the task's env, the device it ran on)."""
     contents = task_setup.read_checkpoint(checkpoint, trust=False)
     env_cfg, agent_cfg, device = task_setup.load_task(task=entry.task, num_envs=settings["num_envs"], device=device,
-                                                 seed=seed, overrides=shipped.overrides)
+                                                 seed=seed, overrides=overrides)
     env_cfg = inference_cfg(env_cfg)
     env_cfg.episode_length_s = settings["episode_length_s"]
     disable_interval_events(env_cfg)
     env = task_setup.make_env(task=entry.task, env_cfg=env_cfg, device=device)
     try:
         policy = task_setup.load_policy(contents, env, agent_cfg)
-        metrics = evaluate(env, policy, settings["num_episodes"])
+        return evaluate(env, policy, settings["num_episodes"]), device
     finally:
         env.close()
-    full_setting = (device != "cpu" and all(settings[k] >= entry.eval_settings[k] for k in settings))
-    settings["overrides"] = overrides
-    return {"task": entry.task, "kind": entry.kind, "checkpoint": checkpoint, "device": device,
-            "device_name": device_name(device), "commit": source_commit(), **settings,
-            "criteria": entry.criteria, "minima": entry.minima, "criteria_checked": full_setting, **metrics}
+
+
+def report_rows(results: list[dict]) -> list[dict]:
+    """One row per single-agent task, and one per agent of a multi-agent task (named "<task> <agent>", its agent's
+    metrics against the task's criteria)."""
+    rows = []
+    for r in results:
+        if "agents" not in r:
+            rows.append(r)
+            continue
+        common = {k: v for k, v in r.items() if k not in ("agents", "group_checkpoints")}
+        rows += [{**common, "error_by_command": {}, **metrics, "task": f"{r['task']} {agent}"}
+                 for agent, metrics in r["agents"].items()]
+    return rows
 
 
 def verdict(result: dict) -> tuple[str, list[str]]:
@@ -106,10 +137,12 @@ def verdict(result: dict) -> tuple[str, list[str]]:
 def report_markdown(results: list[dict], plots: list[str]) -> str:
     from agile.tasks.catalogue import criterion_values
 
+    results = report_rows(results)
     made_at = sorted({f"{r.get('device_name', r['device'])} at commit {r.get('commit', 'unknown')}" for r in results})
     lines = ["# Evaluation of the shipped policies", "",
-             "Written by `agile eval_all`: every task of kind trainable or distilled with a shipped policy "
-             "(`agile list`), pushes off, commands drawn by the task's command term.", "",
+             "Written by `agile eval_all`: every task of kind trainable, distilled or multi-agent with a shipped "
+             "policy (`agile list`; a row per agent of a multi-agent task), pushes off, commands drawn by the task's "
+             "command term.", "",
              f"Made on {'; '.join(made_at)}.", ""]
     if not all(r["criteria_checked"] for r in results):
         lines += ["**Criteria not checked** for the runs marked so: they ran on CPU or with fewer envs or shorter "
@@ -125,9 +158,9 @@ def report_markdown(results: list[dict], plots: list[str]) -> str:
         errors = [f"{r[k]:.3f}" if k in r else "-" for k in ("lin_vel_error_mps", "ang_vel_error_radps")]
         errors.append("-" if height is None else f"{height:.3f}")
         state, missed = verdict(r)
+        length = f"{r['mean_episode_length_s']:.2f}" if "mean_episode_length_s" in r else "-"
         lines.append(f"| {r['task']} | {r['kind']} | {r['device']} | {r['num_envs']} x {r['num_episodes']} x "
-                     f"{r['episode_length_s']:g} s | {r['fall_rate']:.3f} | {' | '.join(errors)} | "
-                     f"{r['mean_episode_length_s']:.2f} | {state}"
+                     f"{r['episode_length_s']:g} s | {r['fall_rate']:.3f} | {' | '.join(errors)} | {length} | {state}"
                      + (f": {'; '.join(missed)}" if missed and state == "FAIL" else "") + " |")
     lines += ["", "Criteria per task:", ""]
     lines += [f"- {r['task']}: " + ", ".join([*(f"{k} <= {v:g}" for k, v in r["criteria"].items()),
@@ -150,7 +183,8 @@ def report_markdown(results: list[dict], plots: list[str]) -> str:
 
 
 def plot_results(results: list[dict], out_dir: str) -> list[str]:
-    """One PNG of the summary metrics (a bar per task) and one of each task's per-term rewards; file names."""
+    """One PNG of the summary metrics (a bar per row of `report_rows`) and one of each row's per-term rewards; file
+    names."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -177,7 +211,7 @@ def plot_results(results: list[dict], out_dir: str) -> list[str]:
         ax.barh(list(terms), list(terms.values()))
         ax.set_title(f"{r['task']}: reward per step by term")
         fig.tight_layout()
-        name = f"{r['task']}_rewards.png"
+        name = f"{r['task'].replace(' ', '_')}_rewards.png"
         fig.savefig(os.path.join(out_dir, name), dpi=110)
         plt.close(fig)
         names.append(name)
@@ -222,7 +256,7 @@ def plot_error_by_command(result: dict, out_dir: str, plt) -> str:
             ax.legend(fontsize=7)
     fig.suptitle(f"{result['task']}: tracking error by command")
     fig.tight_layout()
-    name = f"{result['task']}_error_by_command.png"
+    name = f"{result['task'].replace(' ', '_')}_error_by_command.png"
     fig.savefig(os.path.join(out_dir, name), dpi=110)
     plt.close(fig)
     return name
@@ -258,11 +292,12 @@ def main(argv=None) -> int:
         with open(os.path.join(args.out, f"{entry.task}.json"), "w") as f:
             json.dump(result, f, indent=2)
         results.append(result)
-    plots = plot_results(results, args.out) if importlib.util.find_spec("matplotlib") else []
+    rows = report_rows(results)
+    plots = plot_results(rows, args.out) if importlib.util.find_spec("matplotlib") else []
     with open(os.path.join(args.out, "report.md"), "w") as f:
         f.write(report_markdown(results, plots))
-    failed = [r["task"] for r in results if verdict(r)[0] == "FAIL"]
-    for r in results:
+    failed = [r["task"] for r in rows if verdict(r)[0] == "FAIL"]
+    for r in rows:
         print(f"[agile] {r['task']}: {verdict(r)[0]}" + (f" ({'; '.join(verdict(r)[1])})" if verdict(r)[1] else ""))
     print(f"[agile] report: {os.path.join(args.out, 'report.md')}")
     return 1 if failed else 0

@@ -91,16 +91,18 @@ class ShippedPolicy:
 
     @property
     def fingerprint_file(self) -> Path:
-        return FINGERPRINT_DIR / f"{self.file.stem}.npz"
+        return FINGERPRINT_DIR / f"{self.file.name if self.file.is_dir() else self.file.stem}.npz"
 
 
 def shipped_policies() -> list[ShippedPolicy]:
-    """Every policy file agile ships (agile/data/policy/*.pt), with the task and overrides it runs in."""
+    """Every policy agile ships (agile/data/policy/*.pt, and a multi-agent task's folder of group checkpoints), with the
+    task and overrides it runs in."""
     import agile.tasks
 
     policies = []
-    for file in sorted(POLICY_DIR.glob("*.pt")):
-        task, _, variant = file.stem.partition(".")
+    folders = [p for p in POLICY_DIR.iterdir() if p.is_dir() and any(p.glob(agile.tasks.MULTI_AGENT_CHECKPOINTS))]
+    for file in sorted([*POLICY_DIR.glob("*.pt"), *folders]):
+        task, _, variant = (file.name if file.is_dir() else file.stem).partition(".")
         overrides = [f"env.{o}" for o in agile.tasks.pretrained_policy_conditions(task)[1]]
         if variant:  # one policy per value of a config field (a motion): <task>.<value>.pt
             overrides.append(f"env.{agile.tasks.task_spec(task).shipped_policy_per}={variant}")
@@ -133,11 +135,13 @@ def replay(policy: ShippedPolicy, recording: dict[str, np.ndarray], *, num_steps
     """The policy run again with the recording's envs, seed and dataset, each step's physics result replaced by the
     recorded state (the first `num_steps` steps, default all). The result's `state/` rows hold this machine's own
     physics results, before the replacement: `first_divergence(recording, replay(...))` compares them."""
-    recorded_steps = len(recording["actions"]) - 1
+    recorded_steps = int(recording[f"{META_PREFIX}num_steps"]) if f"{META_PREFIX}num_steps" in recording else \
+        len(recording["actions"]) - 1
     num_steps = recorded_steps if num_steps is None else num_steps
     if not 0 < num_steps <= recorded_steps:
         raise ValueError(f"num_steps must be in [1, {recorded_steps}] (the recording's steps), got {num_steps}")
-    return _rollout(policy, num_envs=recording["actions"].shape[1], num_steps=num_steps,
+    return _rollout(policy, num_envs=int(recording[f"{META_PREFIX}num_envs"]) if f"{META_PREFIX}num_envs" in recording
+                    else recording["actions"].shape[1], num_steps=num_steps,
                     seed=int(recording[f"{META_PREFIX}seed"]), extra_overrides=extra_overrides, recording=recording)
 
 
@@ -154,6 +158,14 @@ def _rollout(policy: ShippedPolicy, *, num_envs: int, num_steps: int, seed: int,
     env_cfg, agent_cfg = agile.tasks.load_cfgs(policy.task)
     env_cfg.num_envs, env_cfg.seed, agent_cfg.seed = num_envs, seed, seed
     apply_overrides({"env": env_cfg, "agent": agent_cfg}, [*policy.overrides, *extra_overrides])
+    if agile.tasks.task_kind(policy.task) == "multi_agent":
+        from agile.run import multi_agent_fingerprint
+
+        with one_torch_thread():
+            fingerprint = multi_agent_fingerprint.rollout(policy, env_cfg, agent_cfg, seed=seed, num_steps=num_steps,
+                                                          recording=recording)
+        return {**fingerprint, f"{META_PREFIX}seed": np.array(seed), f"{META_PREFIX}cpu": np.array(this_cpu()),
+                f"{META_PREFIX}num_steps": np.array(num_steps), f"{META_PREFIX}num_envs": np.array(num_envs)}
     with one_torch_thread():
         # a fallen-state dataset is collected anew (a cached one may come from another seed); a replay swaps in the
         # recorded one before the rollout's first reset
@@ -163,38 +175,57 @@ def _rollout(policy: ShippedPolicy, *, num_envs: int, num_steps: int, seed: int,
             if dataset_term is not None and recording is not None:
                 dataset_term.set_dataset(_recorded_dataset(recording, env))
             act = load_policy(load_checkpoint(str(policy.file)), env, agent_cfg)
-            physics_results = []
-
-            def after_physics():
-                physics_results.append(env.sim.physics_result())
-                if recording is not None:
-                    step = len(physics_results)
-                    env.sim.write_physics_result({name: torch.from_numpy(recording[_physics_key(name)][step])
-                                                  for name in physics_results[-1]})
-
+            physics = PhysicsSteps(env.sim, recording)
             obs, _ = env.reset(seed=seed)
             term_dims = env.observation_manager.term_dims
-            steps = [_observation_summary(obs, term_dims)]
-            with env.sim.after_each_step(after_physics), torch.inference_mode():
+            steps = [observation_summary(obs, term_dims)]
+            with env.sim.after_each_step(physics), torch.inference_mode():
                 for _ in range(num_steps):
                     actions = act(obs)
                     obs, reward, _, _, _ = env.step(actions)
                     # copies: on the CPU the env returns, and its reward manager keeps, one buffer each that the
                     # next step overwrites (a row holding them would end with the last step's values in every step)
-                    row = {"actions": actions.clone(), "reward": reward.clone()}
-                    row.update({_physics_key(n): v for n, v in physics_results[-1].items()})
+                    row = {"actions": actions.clone(), "reward": reward.clone(), **physics.rows[-1]}
                     row.update({f"reward/{n}": v.clone() for n, v in env.reward_manager.step_reward.items()})
                     row.update({f"termination/{n}": v.float()
                                 for n, v in env.termination_manager.term_dones.items()})
-                    steps.append({**row, **_observation_summary(obs, term_dims)})
+                    steps.append({**row, **observation_summary(obs, term_dims)})
             dataset = {} if dataset_term is None else {f"{DATASET_PREFIX}{name}": value.cpu().numpy()
                                                        for name, value in dataset_term.states.tensors.items()}
         finally:
             env.close()
-    # the observations after reset are step 0; every other quantity starts at step 1 (NaN at step 0)
-    names = list(steps[1])
-    fingerprint = {name: np.stack([_as_array(s.get(name), steps[1][name]) for s in steps]) for name in names}
-    return {**fingerprint, **dataset, f"{META_PREFIX}seed": np.array(seed), f"{META_PREFIX}cpu": np.array(this_cpu())}
+    return {**stack_steps(steps), **dataset, f"{META_PREFIX}seed": np.array(seed),
+            f"{META_PREFIX}cpu": np.array(this_cpu())}
+
+
+class PhysicsSteps:
+    """The hook run after each physics step (`Simulation.after_each_step`): keeps the step's result as a fingerprint row
+    (`rows`, one per step from the first); in a replay it then writes the recorded state of that step in its place,
+    before anything reads it."""
+
+    def __init__(self, sim, recording: dict[str, np.ndarray] | None):
+        self.sim, self.recording = sim, recording
+        self.rows: list[dict] = []
+
+    def __call__(self) -> None:
+        import torch
+
+        result = self.sim.physics_result()
+        self.rows.append({_physics_key(name): value for name, value in result.items()})
+        if self.recording is not None:
+            step = len(self.rows)
+            self.sim.write_physics_result({name: torch.from_numpy(self.recording[_physics_key(name)][step])
+                                           for name in result})
+
+
+def stack_steps(steps: list[dict]) -> dict[str, np.ndarray]:
+    """{name: (steps, ...) array} of per-step rows: NaN at a step without the quantity (step 0, the observations
+    after the reset, has no other; a multi-agent step has the results of the agents whose period ended)."""
+    like = {}
+    for step in steps:
+        for name, value in step.items():
+            like.setdefault(name, value)
+    return {name: np.stack([_as_array(s.get(name), like[name]) for s in steps]) for name in like}
 
 
 def _physics_key(name: str) -> str:
@@ -227,7 +258,7 @@ def _recorded_dataset(recording: dict[str, np.ndarray], env):
     return FallenStates(tensors, num_levels=env.sim.max_terrain_level)
 
 
-def _observation_summary(obs, term_dims: dict[str, dict[str, int]]) -> dict:
+def observation_summary(obs, term_dims: dict[str, dict[str, int]]) -> dict:
     """Per observation term, (N, 2): the mean and the root mean square over its entries (a concatenated group is
     split by the observation manager's `term_dims`)."""
     import torch

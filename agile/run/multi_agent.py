@@ -224,13 +224,15 @@ def run_world(*, task: str, checkpoint: str | None, num_envs: int | None = None,
               seed: int | None = None, rnn: str | None = None, overrides=(), episodes: int | None = None,
               num_steps: int | None = None, episode_length_s: float | None = None, pushes: bool = False,
               video: str | None = None, trust_checkpoint: bool = False) -> dict:
-    """Run a multi-agent task's trained groups from its training run folder `checkpoint` (per-group PPO or HAPPO) for
-    `episodes` per env (eval) or `num_steps` steps of the world (play); per-agent metrics and what was run. `video`:
-    env 0 rendered into this mp4."""
+    """Run a multi-agent task's trained groups from its training run folder `checkpoint` (per-group PPO or HAPPO;
+    None: the folder agile ships for the task) for `episodes` per env (eval) or `num_steps` steps of the world (play);
+    per-agent metrics and what was run. `video`: env 0 rendered into this mp4."""
     from agile.run.recorders import VideoRecorder
 
     from agile.run import happo
 
+    if checkpoint is None:  # the task's shipped folder of group checkpoints, run in its training conditions
+        checkpoint, overrides = task_setup.policy_to_run(task=task, checkpoint=None, overrides=overrides)
     run_dir = check_run_folder(checkpoint)
     is_happo_run = happo.newest_checkpoint(run_dir) is not None  # else a run of per-group PPO learners
     env_cfg, agent_cfg, device = task_setup.load_task(task=task, num_envs=num_envs, device=device, seed=seed, rnn=rnn,

@@ -55,6 +55,8 @@ def load_cfgs(task: str, trainer: str = "rsl_rl"):
 
 PRETRAINED_DIR = Path(__file__).resolve().parents[1] / "data" / "policy"
 PRETRAINED_CONDITIONS = PRETRAINED_DIR / "conditions.yaml"
+MULTI_AGENT_CHECKPOINTS = "*/model_*.pt"
+"""A multi-agent task's shipped checkpoints inside its folder: one per agent group, as a training run folder holds them."""
 
 
 def shipped_policy_variant(task: str, env_cfg=None) -> str | None:
@@ -76,9 +78,13 @@ def pretrained_policy(task: str, env_cfg=None) -> Path | None:
     """The policy shipped with agile for a task (agile/data/policy/<task>.pt, or the file of the task its
     registration names as `shipped_policy`: two IDs of one task share one policy), if there is one. A task
     with `shipped_policy_per` ships one per value of that field: <task>.<value>.pt (see
-    `shipped_policy_variant`; `env_cfg` is the config after the user's overrides)."""
+    `shipped_policy_variant`; `env_cfg` is the config after the user's overrides). A multi-agent task ships a
+    folder shaped as its training run folder, agile/data/policy/<task>/<group>/model_<iteration>.pt."""
     spec = task_spec(task)
     name = spec.policy_name
+    if spec.kind == "multi_agent":
+        folder = PRETRAINED_DIR / name
+        return folder if any(folder.glob(MULTI_AGENT_CHECKPOINTS)) else None
     if spec.shipped_policy_per is not None:
         variant = shipped_policy_variant(task, env_cfg)
         if variant is None:
@@ -89,9 +95,11 @@ def pretrained_policy(task: str, env_cfg=None) -> Path | None:
 
 
 def shipped_policy_files(task: str) -> list[Path]:
-    """Every policy file agile ships for the task (several for a task with one per value of a config field), found
-    without building or loading its configs."""
+    """Every policy file agile ships for the task (several for a task with one per value of a config field, one per
+    agent group for a multi-agent task), found without building or loading its configs."""
     spec = task_spec(task)
+    if spec.kind == "multi_agent":
+        return sorted((PRETRAINED_DIR / spec.policy_name).glob(MULTI_AGENT_CHECKPOINTS))
     if spec.shipped_policy_per is not None:
         return sorted(PRETRAINED_DIR.glob(f"{spec.policy_name}.*.pt"))
     path = PRETRAINED_DIR / f"{spec.policy_name}.pt"

@@ -17,9 +17,9 @@ CATALOGUE_KINDS = TASK_KINDS
 """trainable: PPO on its own reward; distilled: a student whose agent cfg is a DistillationRunnerCfg;
 debug: watched and driven by hand in the GUI (one may play the policy of the task it debugs); multi_agent: a
 MultiAgentEnv (several robots, own rates)."""
-EVALUATED_KINDS = ("trainable", "distilled")
+EVALUATED_KINDS = ("trainable", "distilled", "multi_agent")
 """The kinds whose shipped policy eval_all.py evaluates (a debug task's policy, if any, is another task's, evaluated
-there; multi-agent tasks have their own eval)."""
+there); a multi-agent task's criteria bound each of its agents."""
 
 DEFAULT_EVAL_SETTINGS = {"num_envs": 512, "num_episodes": 1, "episode_length_s": 20.0}
 """GPU evaluation: 512 envs for one 20 s episode each, pushes off (what docs/results/velocity/eval_*_h100.json used)."""
@@ -70,7 +70,7 @@ def task_entry(task: str) -> TaskEntry:
     spec = task_spec(task)
     kind = catalogue_kind(task)
     height, velocity = False, True
-    if kind in EVALUATED_KINDS:  # multi-agent configs have no single base_velocity command
+    if kind in ("trainable", "distilled"):  # a multi-agent config has a command per agent: velocity criteria each
         env_cfg = load_cfgs(task)[0]
         height = has_height_command(env_cfg)
         velocity = getattr(getattr(env_cfg, "commands", None), "base_velocity", None) is not None
@@ -89,7 +89,7 @@ def catalogue() -> list[TaskEntry]:
 
 
 def evaluated_tasks() -> list[TaskEntry]:
-    """The tasks eval_all.py evaluates: trainable or distilled, with a shipped policy; a second ID of one task
+    """The tasks eval_all.py evaluates: trainable, distilled or multi-agent, with a shipped policy; a second ID of one task
     (sharing its policy file, e.g. Velocity-Height-G1-v0 = -Teacher-v0) is evaluated once, under the file's name
     (a policy per motion, <task>.<motion>.pt: the task's default motion)."""
     return [e for e in catalogue()

@@ -4,7 +4,6 @@ Velocity-Flat-Go1-v0: the same on flat ground.
 The velocity family's blocks with a quadruped's bodies: Isaac Lab's rough terrain (stairs, boxes, slopes, noise) with
 the terrain curriculum, the velocity tasks' domain randomisation, pushes and resets; rewards after Isaac Lab's and
 mjlab's Go1 velocity tasks (tracking, base motion, joint effort, a foot air-time bonus, thigh and trunk contacts).
-The weights are a first set, not yet tuned by a GPU training.
 """
 
 from __future__ import annotations
@@ -30,8 +29,17 @@ FEET_CONTACT = SceneEntityCfg(CONTACT_SENSOR, body_names=FOOT_BODIES, preserve_o
 BASE_HEIGHT_TARGET_M = 0.28
 """The trunk's height standing in the default crouch (`agile robot check`: 0.28 m)."""
 
+# Isaac Lab's rough terrain as its Go1 task scales it for a robot of 0.28 m: boxes of at most 10 cm, rough ground of
+# at most 6 cm (in 1 cm steps); the stairs and slopes stay
+GO1_ROUGH_TERRAINS_CFG = dataclasses.replace(ROUGH_TERRAINS_CFG, sub_terrains={
+    **ROUGH_TERRAINS_CFG.sub_terrains,
+    "boxes": dataclasses.replace(ROUGH_TERRAINS_CFG.sub_terrains["boxes"], grid_height_range_m=(0.025, 0.1)),
+    "random_rough": dataclasses.replace(ROUGH_TERRAINS_CFG.sub_terrains["random_rough"], noise_range_m=(0.01, 0.06),
+                                        noise_step_m=0.01),
+})
+
 # -- scene: the robot alone on the terrain, with the contact sensor and the base-height ray
-SCENE = velocity_scene_cfg(go1_robot_cfg(), ROUGH_TERRAINS_CFG, base_body=BASE_BODY,
+SCENE = velocity_scene_cfg(go1_robot_cfg(), GO1_ROUGH_TERRAINS_CFG, base_body=BASE_BODY,
                            sensed_bodies=[BASE_BODY, *THIGH_BODIES, *FOOT_BODIES])
 
 
@@ -80,6 +88,17 @@ class RewardsCfg:
                                     "force_threshold_n": 1.0})
 
 
+# any trunk contact ends the episode (Isaac Lab's Go1 `base_contact`), as does a tilt past 60° or (on flat ground) the
+# trunk 15 cm below its standing height
+FLAT_TERMINATIONS = velocity_terminations_cfg(BASE_HEIGHT_TARGET_M, trunk_bodies=[BASE_BODY], max_tilt_deg=60.0,
+                                              contact_min_height_m=math.inf, height_margin_m=0.15)
+# On rough terrain the base-height ray under the trunk lands on the next step or box: a trunk 15 cm "low" there is a
+# Go1 climbing, not falling (with the height termination, 22% of the episodes ended so at iteration 1,900 and the
+# mean terrain level stalled at 0.7; H200, 4,096 envs, 2026-12-02). Trunk contact and tilt end them, as in Isaac Lab's
+# and mjlab's rough Go1 tasks.
+ROUGH_TERMINATIONS = dataclasses.replace(FLAT_TERMINATIONS, illegal_base_height=None)
+
+
 @configclass
 class Go1VelocityEnvCfg(ManagerBasedRLEnvCfg):
     num_envs = 4096
@@ -91,10 +110,7 @@ class Go1VelocityEnvCfg(ManagerBasedRLEnvCfg):
     actions = ActionsCfg()
     observations = ObservationsCfg()
     rewards = RewardsCfg()
-    # any trunk contact ends the episode (Isaac Lab's Go1 `base_contact`), as does a tilt past 60° or the trunk
-    # 15 cm below its standing height
-    terminations = velocity_terminations_cfg(BASE_HEIGHT_TARGET_M, trunk_bodies=[BASE_BODY], max_tilt_deg=60.0,
-                                             contact_min_height_m=math.inf, height_margin_m=0.15)
+    terminations = ROUGH_TERMINATIONS
     events = velocity_events_cfg(base_body=BASE_BODY, base_mass_add_kg=(-1.0, 2.0),
                                  base_com_range_m={"x": (-0.05, 0.05), "y": (-0.03, 0.03), "z": (-0.03, 0.03)},
                                  extremity_bodies=FOOT_BODIES, base_wrench_n_nm=(5.0, 1.0),
@@ -103,7 +119,8 @@ class Go1VelocityEnvCfg(ManagerBasedRLEnvCfg):
 
 
 def go1_flat_velocity_env_cfg() -> Go1VelocityEnvCfg:
-    """Velocity-Flat-Go1-v0: the rough task on flat ground, without the terrain curriculum."""
+    """Velocity-Flat-Go1-v0: the rough task on flat ground, without the terrain curriculum, with the height
+    termination."""
     cfg = Go1VelocityEnvCfg()
-    return dataclasses.replace(cfg, scene=dataclasses.replace(cfg.scene, terrain=None),
+    return dataclasses.replace(cfg, scene=dataclasses.replace(cfg.scene, terrain=None), terminations=FLAT_TERMINATIONS,
                                curriculum=dataclasses.replace(cfg.curriculum, terrain_levels=None))
