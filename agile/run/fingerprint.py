@@ -135,14 +135,14 @@ def replay(policy: ShippedPolicy, recording: dict[str, np.ndarray], *, num_steps
     """The policy run again with the recording's envs, seed and dataset, each step's physics result replaced by the
     recorded state (the first `num_steps` steps, default all). The result's `state/` rows hold this machine's own
     physics results, before the replacement: `first_divergence(recording, replay(...))` compares them."""
-    recorded_steps = int(recording[f"{META_PREFIX}num_steps"]) if f"{META_PREFIX}num_steps" in recording else \
-        len(recording["actions"]) - 1
+    # (steps + 1, envs, ...): the actions, or a multi-agent recording's first agent's
+    actions = next(v for k, v in sorted(recording.items()) if k == "actions" or k.startswith("actions/"))
+    recorded_steps = len(actions) - 1
     num_steps = recorded_steps if num_steps is None else num_steps
     if not 0 < num_steps <= recorded_steps:
         raise ValueError(f"num_steps must be in [1, {recorded_steps}] (the recording's steps), got {num_steps}")
-    return _rollout(policy, num_envs=int(recording[f"{META_PREFIX}num_envs"]) if f"{META_PREFIX}num_envs" in recording
-                    else recording["actions"].shape[1], num_steps=num_steps,
-                    seed=int(recording[f"{META_PREFIX}seed"]), extra_overrides=extra_overrides, recording=recording)
+    return _rollout(policy, num_envs=actions.shape[1], num_steps=num_steps, seed=int(recording[f"{META_PREFIX}seed"]),
+                    extra_overrides=extra_overrides, recording=recording)
 
 
 def _rollout(policy: ShippedPolicy, *, num_envs: int, num_steps: int, seed: int, extra_overrides: tuple[str, ...],
@@ -164,8 +164,7 @@ def _rollout(policy: ShippedPolicy, *, num_envs: int, num_steps: int, seed: int,
         with one_torch_thread():
             fingerprint = multi_agent_fingerprint.rollout(policy, env_cfg, agent_cfg, seed=seed, num_steps=num_steps,
                                                           recording=recording)
-        return {**fingerprint, f"{META_PREFIX}seed": np.array(seed), f"{META_PREFIX}cpu": np.array(this_cpu()),
-                f"{META_PREFIX}num_steps": np.array(num_steps), f"{META_PREFIX}num_envs": np.array(num_envs)}
+        return {**fingerprint, f"{META_PREFIX}seed": np.array(seed), f"{META_PREFIX}cpu": np.array(this_cpu())}
     with one_torch_thread():
         # a fallen-state dataset is collected anew (a cached one may come from another seed); a replay swaps in the
         # recorded one before the rollout's first reset

@@ -155,12 +155,22 @@ def episode_slots(world, num_episodes: int) -> int:
         len(world.schedule.slots)
 
 
+def acting_actions(world, policies: dict) -> dict:
+    """{agent: actions} of the agents acting at the world's next step, from their groups' policies
+    (`policies[view]`: a group's observations to its actions)."""
+    acting = set(world.acting_agents)
+    actions = {}
+    for view, act in policies.items():
+        if view.agent_names[0] in acting:
+            actions.update(view.split_actions(act(view.get_observations())))
+    return actions
+
+
 def evaluate(world, policies: dict, num_slots: int, recorders=(), command_name: str = "base_velocity") -> dict:
     """Per agent: falls (its termination fired), velocity tracking error while alive, reward terms, over
     `num_slots` steps of the world from a reset. `policies[view]` maps a group's observations to its actions."""
     import torch
 
-    views = policies.keys()
     world.reset()
     stats = {name: {"falls": torch.zeros((), device=world.device), "lin": torch.zeros((), device=world.device),
                     "ang": torch.zeros((), device=world.device), "alive_steps": torch.zeros((), device=world.device),
@@ -171,11 +181,7 @@ def evaluate(world, policies: dict, num_slots: int, recorders=(), command_name: 
         for _ in range(num_slots):
             acting = set(world.acting_agents)
             commands.update({n: world.agents[n].command_manager.get_command(command_name).clone() for n in acting})
-            actions = {}
-            for view in views:
-                if view.agent_names[0] in acting:
-                    actions.update(view.split_actions(policies[view](view.get_observations())))
-            steps = world.step(actions)
+            steps = world.step(acting_actions(world, policies))
             for recorder in recorders:
                 recorder.record(world)
             for name, step in steps.items():

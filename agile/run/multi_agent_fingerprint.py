@@ -3,8 +3,8 @@ slot by slot on the CPU with its shipped agent groups acting, as an evaluation r
 curriculum), pushes on.
 
 A world step's row holds, for each agent acting at it, its actions (`actions/<agent>`), and for each agent whose
-period ended there, its reward (`reward_total/<agent>`), weighted reward terms (`reward/<agent>/<term>`), termination terms
-(`termination/<agent>/<term>`) and observation summaries (`obs/<agent>/<group>/<term>`); an agent with no such result
+period ended there, its reward (`reward_total/<agent>`), weighted reward terms (`reward/<agent>/<term>`),
+termination terms (`termination/<agent>/<term>`) and observation summaries (`obs/<agent>/<group>/<term>`); an agent with no such result
 at a step has NaN there. The physics results (`state/`, `input/`) are one row per physics tick of the world, as the
 replay writes the recorded state back after each tick."""
 
@@ -21,7 +21,7 @@ def rollout(policy: ShippedPolicy, env_cfg, agent_cfg, *, seed: int, num_steps: 
     tick's physics result replaced by the recorded one."""
     import torch
 
-    from agile.run.multi_agent import evaluation_cfg, make_world, restored_runner
+    from agile.run.multi_agent import acting_actions, evaluation_cfg, make_world, restored_runner
 
     world = make_world(policy.task, evaluation_cfg(env_cfg, pushes=True), "cpu")
     try:
@@ -34,17 +34,14 @@ def rollout(policy: ShippedPolicy, env_cfg, agent_cfg, *, seed: int, num_steps: 
                   for key, value in agent_summary(name, obs[name], agent).items()}]
         with world.sim.after_each_step(physics), torch.inference_mode():
             for _ in range(num_steps):
-                acting = set(world.acting_agents)
-                actions = {}
-                for view, act in policies.items():
-                    if view.agent_names[0] in acting:
-                        actions.update(view.split_actions(act(view.get_observations())))
+                actions = acting_actions(world, policies)
                 results = world.step(actions)
                 # copies: the world and its managers keep one buffer per quantity that the next step overwrites
                 row = {f"actions/{name}": action.clone() for name, action in actions.items()}
                 for name, result in results.items():
                     agent = world.agents[name]
-                    row[f"reward_total/{name}"] = result.reward.clone()  # after its terms: a term names a change better
+                    # the total after its terms (STEP_KINDS): a term names a change better
+                    row[f"reward_total/{name}"] = result.reward.clone()
                     row.update({f"reward/{name}/{t}": v.clone() for t, v in agent.reward_manager.step_reward.items()})
                     row.update({f"termination/{name}/{t}": v.float()
                                 for t, v in agent.termination_manager.term_dones.items()})
