@@ -8,7 +8,7 @@ import weakref
 
 import pytest
 
-from agile.utils.heap import heap_frozen
+from agile.utils.heap import heap_frozen, no_collection_while_capturing
 
 
 class Cycle:
@@ -35,6 +35,28 @@ def test_garbage_from_before_the_start_is_collected_after_the_end_not_during():
         assert alive() is not None  # frozen: no pass visits it
     gc.collect()
     assert alive() is None  # given back, and freed
+
+
+def test_no_collection_runs_while_a_graph_captures_and_garbage_from_before_goes_first():
+    """Cyclic garbage from before the capture is freed on entry (outside the capture); inside, the collector is off,
+    also for a nested capture, which leaves it to the outermost; after an error it is on again."""
+    before = Cycle()
+    freed_before = weakref.ref(before)
+    del before
+    with no_collection_while_capturing():
+        assert freed_before() is None and not gc.isenabled()
+        during = Cycle()
+        freed_during = weakref.ref(during)
+        del during
+        for _ in range(3 * gc.get_threshold()[0]):  # allocations that would start a generation-0 collection
+            Cycle()
+        with no_collection_while_capturing():
+            assert not gc.isenabled()
+        assert not gc.isenabled() and freed_during() is not None
+    assert gc.isenabled()
+    with pytest.raises(RuntimeError, match="inside"), no_collection_while_capturing():
+        raise RuntimeError("inside")
+    assert gc.isenabled()
 
 
 def test_a_callers_own_freeze_is_kept():

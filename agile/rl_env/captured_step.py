@@ -8,6 +8,8 @@ import torch
 import warp as wp
 from tensordict import TensorDict
 
+from agile.utils.heap import no_collection_while_capturing
+
 
 def clone_outputs(outputs):
     """Copies of a step's outputs (tensors, TensorDicts, and tuples, lists and dicts of them): a replay
@@ -58,7 +60,8 @@ class CapturedStep:
         # stream object is capturing, so its conditional loops become graph nodes
         wp_stream = wp.get_stream(self.sim.wp_device)
         graph = torch.cuda.CUDAGraph()
-        with torch.cuda.graph(graph, stream=wp.stream_to_torch(wp_stream), capture_error_mode="thread_local"):
+        with no_collection_while_capturing(), torch.cuda.graph(graph, stream=wp.stream_to_torch(wp_stream),
+                                                               capture_error_mode="thread_local"):
             wp.capture_begin(device=self.sim.wp_device, stream=wp_stream, external=True)
             try:
                 self._outputs = self.step_fn(*self._inputs, physics_graph=False)

@@ -23,6 +23,7 @@ from agile.sim.sim_cfg import SimCfg
 from agile.sim.terrain import TerrainData, load_or_generate_terrain
 from agile.sim.terrain_contacts import TerrainContacts, split_terrain_pairs
 from agile.utils.config import ConfigError, domain_problems
+from agile.utils.heap import no_collection_while_capturing
 
 def env_origins_grid(num_envs: int, spacing_m: float, device) -> torch.Tensor:
     """(N, 3) origins on a square grid centred on the world origin."""
@@ -268,7 +269,7 @@ class Simulation:
         saved = [wp.clone(a) for a in (self.state.joint_q, self.state.joint_qd, self.state.body_q, self.state.body_qd)]
         with wp.ScopedDevice(self.wp_device):
             self._physics_loop(num_steps)
-            with wp.ScopedCapture(device=self.wp_device) as capture:
+            with no_collection_while_capturing(), wp.ScopedCapture(device=self.wp_device) as capture:
                 self._physics_loop(num_steps)
         for dst, src in zip((self.state.joint_q, self.state.joint_qd, self.state.body_q, self.state.body_qd), saved):
             dst.assign(src)

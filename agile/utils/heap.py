@@ -27,3 +27,21 @@ def heap_frozen():
         yield
     finally:
         gc.unfreeze()
+
+
+@contextmanager
+def no_collection_while_capturing():
+    """Python's garbage collector off while a CUDA graph records (collected first, so that what is garbage already
+    goes now). A collection that starts inside a capture can free an object whose destructor calls CUDA, a torch
+    `CUDAGraph` of an env built before among them; its `reset` is not permitted while a stream captures and fails
+    the capture (seen 2026-12-02 on an H200: `agile eval_all` at its seventh task, Warp CUDA error 901). Nested
+    captures (the env step records the physics loop) leave it to the outermost."""
+    if not gc.isenabled():
+        yield
+        return
+    gc.collect()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.enable()

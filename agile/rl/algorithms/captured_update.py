@@ -40,6 +40,7 @@ import torch
 from rsl_rl.storage import RolloutStorage
 
 from agile.rl.algorithms.sync_free_update import LOSS_SUMS, SyncFreeUpdate
+from agile.utils.heap import no_collection_while_capturing
 
 
 class CapturedUpdate(SyncFreeUpdate):
@@ -138,11 +139,12 @@ class CapturedUpdate(SyncFreeUpdate):
         # allocator's cache, handing the rollout's memory back to CUDA
         self._ranks_meet()
         graph = torch.cuda.CUDAGraph()
-        graph.capture_begin()
-        try:
-            self.mini_batch_step(self._fixed_batch(), self.sums)
-        finally:
-            graph.capture_end()
+        with no_collection_while_capturing():
+            graph.capture_begin()
+            try:
+                self.mini_batch_step(self._fixed_batch(), self.sums)
+            finally:
+                graph.capture_end()
         self._ranks_meet()
         self.graph, self.captured_key, self.captured_state = graph, self.graph_key(), self.optimizer_state()
         self.captured_buffers = self.model_buffers()
