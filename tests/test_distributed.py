@@ -24,25 +24,27 @@ def digests(out: str) -> dict[int, str]:
     return {int(r): d for r, d in re.findall(r"\[agile\] rank (\d+): weights sha256 (\w+)", out)}
 
 
-def test_two_ranks_train_resume_and_end_with_the_same_weights(tmp_path):
-    code, out = torchrun(*FLAT_T1, "--max_iterations", "1", "--log_root", str(tmp_path), "--seed", "7")
-    assert code == 0, out[-3000:]
-    # each rank its own seed (its own envs), so the same weights at the end need the all-reduced gradients
-    assert "rank 0 of 2 on cpu, seed 7" in out and "rank 1 of 2 on cpu, seed 8" in out
-    first = digests(out)
-    assert set(first) == {0, 1} and first[0] == first[1], out[-2000:]
-    assert "all 2 ranks hold the same weights" in out
-    runs = list((tmp_path / "velocity_t1").iterdir())
-    assert len(runs) == 1  # rank 0 alone writes logs, checkpoints and the export
-    checkpoint = runs[0] / "model_0.pt"
-    assert checkpoint.is_file() and (runs[0] / "exported" / "policy.pt").is_file()
+def test_two_ranks_resume_train_and_end_with_the_same_weights(tmp_path):
+    """Two ranks resume a checkpoint (here one a single process trained), each with its own seed (its own envs), and
+    end with the same weights, which needs the all-reduced gradients; rank 0 alone writes logs, checkpoints and the
+    export."""
+    from agile.rl.distributed import weights_digest
 
-    code, out = torchrun(*FLAT_T1, "--max_iterations", "1", "--log_root", str(tmp_path), "--checkpoint",
-                         str(checkpoint))
+    code, out, err = run_command("train", *FLAT_T1, "--max_iterations", "1", "--log_root", tmp_path / "single")
+    assert code == 0, out[-3000:] + err[-3000:]
+    (checkpoint,) = (tmp_path / "single" / "velocity_t1").glob("*/model_0.pt")
+    start = weights_digest(torch.load(checkpoint, weights_only=True))
+
+    code, out = torchrun(*FLAT_T1, "--max_iterations", "1", "--log_root", str(tmp_path / "ranks"), "--seed", "7",
+                         "--checkpoint", str(checkpoint))
     assert code == 0, out[-3000:]
-    assert out.count("continuing at iteration 1") == 2  # both ranks resume from rank 0's checkpoint
-    second = digests(out)
-    assert second[0] == second[1] != first[0]
+    assert "rank 0 of 2 on cpu, seed 7" in out and "rank 1 of 2 on cpu, seed 8" in out
+    assert out.count("continuing at iteration 1") == 2  # both ranks resume from the checkpoint
+    final = digests(out)
+    assert set(final) == {0, 1} and final[0] == final[1] != start, out[-2000:]
+    assert "all 2 ranks hold the same weights" in out
+    (run,) = (tmp_path / "ranks" / "velocity_t1").iterdir()
+    assert (run / "model_1.pt").is_file() and (run / "exported" / "policy.pt").is_file()
 
 
 def test_distributed_needs_torchrun_and_torchrun_needs_distributed(monkeypatch):

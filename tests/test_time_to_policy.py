@@ -26,26 +26,6 @@ def test_the_run_stops_at_the_first_checkpoint_that_meets_the_criteria(tmp_path,
     assert "Learning iteration 0" in (tmp_path / "t1.log").read_text()  # the training's own log beside it
 
 
-def test_evaluating_after_the_training_reports_the_first_checkpoint_that_meets_the_criteria(tmp_path, capsys):
-    """The training runs undisturbed (here to its third and last iteration, well inside the budget: on a machine
-    compiling the kernels the first iteration came at 35 s); then the checkpoints are evaluated in order, the first
-    that meets the criteria (here: the first of all) gives the time to policy, when it was written."""
-    out = tmp_path / "after"
-    code = main(["--task", "Velocity-T1-v0", "--budget_s", "300", "--max_iterations", "3", "--num_envs", "2",
-                 "--device", "cpu", "--save_interval", "1", "--eval_num_envs", "2", "--eval_episode_length_s", "0.2",
-                 "--evaluate_after_training", "--criterion", "fall_rate=1.0", "--out", str(out), "--recipe", "fast",
-                 "agent.num_steps_per_env=2", *FLAT_GROUND_ARGS])
-    result = json.loads(out.with_suffix(".json").read_text())
-    assert code == 0, capsys.readouterr()
-    (first,) = result["evaluations"]
-    assert first["iteration"] == 0 and first["met"] and result["evaluated"] == "after the training"
-    assert result["time_to_policy_s"] == first["wall_s"] < 300
-    assert "Learning iteration 2" in (tmp_path / "after.log").read_text()  # it trained on past the first checkpoint
-    # what it trained with is in the JSON: the recipe's overrides, then the given ones
-    assert result["recipe"] == "fast" and result["overrides"][:len(RECIPES["fast"])] == list(RECIPES["fast"])
-    assert result["overrides"][len(RECIPES["fast"])] == "agent.num_steps_per_env=2"
-
-
 def test_several_ranks_train_through_torchrun_on_the_cpu(tmp_path, capsys):
     """--gpus N with --device cpu: N CPU ranks (gloo) under torchrun, the path of a several-GPU run, and the
     checkpoints rank 0 wrote evaluated after the training."""
@@ -72,20 +52,31 @@ def test_a_run_without_an_evaluated_checkpoint_writes_no_curve(tmp_path):
     assert not (tmp_path / "curve.png").exists()
 
 
-def test_seeds_run_one_after_another_and_are_summarised(tmp_path, capsys):
-    """--seeds: one training per seed (its own JSON and log), then the summary over them, one curve per seed."""
+def test_seeds_run_one_after_another_evaluated_after_the_training_and_summarised(tmp_path, capsys):
+    """--seeds: one training per seed (its own JSON and log), then the summary over them, one curve per seed. Each
+    training runs undisturbed (here to its third and last iteration, well inside the budget: on a machine compiling
+    the kernels the first iteration came at 35 s); then its checkpoints are evaluated in order, and the first that
+    meets the criteria (here: the first of all) gives the time to policy, when it was written."""
     out = tmp_path / "seeds"
-    code = main(["--task", "Velocity-T1-v0", "--seeds", "3", "4", "--budget_s", "300", "--max_iterations", "1",
+    code = main(["--task", "Velocity-T1-v0", "--seeds", "3", "4", "--budget_s", "300", "--max_iterations", "3",
                  "--num_envs", "2", "--device", "cpu", "--save_interval", "1", "--eval_num_envs", "2",
                  "--eval_episode_length_s", "0.2", "--evaluate_after_training", "--criterion", "fall_rate=1.0",
-                 "--out", str(out), "agent.num_steps_per_env=2", *FLAT_GROUND_ARGS])
+                 "--out", str(out), "--recipe", "fast", "agent.num_steps_per_env=2", *FLAT_GROUND_ARGS])
     assert code == 0, capsys.readouterr()
     summary = json.loads(out.with_suffix(".json").read_text())
     runs = [json.loads((tmp_path / name).read_text()) for name in summary["runs"]]
     assert summary["seeds"] == [3, 4] and [r["seed"] for r in runs] == [3, 4] and summary["met"] == 2
     assert summary["time_to_policy_s"] == [r["time_to_policy_s"] for r in runs] and not summary["missed_seeds"]
     assert summary["worst_s"] == max(summary["time_to_policy_s"])
-    assert (tmp_path / "seeds_seed3.log").exists() and (tmp_path / "seeds_seed4.log").exists()
+    for seed, result in zip((3, 4), runs, strict=True):
+        (first,) = result["evaluations"]
+        assert first["iteration"] == 0 and first["met"] and result["evaluated"] == "after the training"
+        assert result["time_to_policy_s"] == first["wall_s"] < 300
+        # it trained on past the first checkpoint, in the training's own log beside it
+        assert "Learning iteration 2" in (tmp_path / f"seeds_seed{seed}.log").read_text()
+        # what it trained with is in the JSON: the recipe's overrides, then the given ones
+        assert result["recipe"] == "fast" and result["overrides"][:len(RECIPES["fast"])] == list(RECIPES["fast"])
+        assert result["overrides"][len(RECIPES["fast"])] == "agent.num_steps_per_env=2"
 
 
 def test_the_seed_summary_counts_a_miss_as_its_budget():
