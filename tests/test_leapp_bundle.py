@@ -24,7 +24,7 @@ from agile.utils.config import apply_overrides
 
 VELOCITY_POLICIES = ["Velocity-T1-v0", "Velocity-G1-History-v0", "Velocity-Height-G1-Teacher-v0",
                      "Velocity-Height-G1-Student-History-v0", "Velocity-Height-G1-Student-Recurrent-v0",
-                     "Velocity-Flat-Go1-v0"]
+                     "Velocity-Go1-v0", "Velocity-Flat-Go1-v0"]
 """Every shipped velocity and velocity-height policy: what a robot runs from raw state."""
 
 
