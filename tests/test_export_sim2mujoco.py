@@ -17,7 +17,7 @@ from agile.rl import RslRlVecEnvWrapper, make_recurrent, to_rsl_rl_dict
 from agile.export.io_descriptor import io_descriptor
 from agile.export.policy_files import example_input, export_policy
 from agile.rl_env.io_descriptor_file import read_io_descriptor, write_io_descriptor
-from commands import FLAT_GROUND
+from commands import FLAT_GROUND, run_command
 from scenes import robot_sim
 
 from agile.deploy import mujoco_robot
@@ -160,7 +160,7 @@ def test_newton_and_plain_mujoco_agree_on_the_same_torques(exported):
     robot = sim.scene["robot"]
     targets = robot.default_joint_pos[0].numpy() + np.random.default_rng(0).uniform(-0.3, 0.3, robot.num_joints)
     robot.joint_pos_target[0] = torch.tensor(targets, dtype=torch.float32)
-    model = mujoco_robot.build_model(descriptor, sim2mujoco.default_mjcf(descriptor))
+    model = mujoco_robot.build_model(descriptor, sim2mujoco.default_mjcf(descriptor), solver="training")
     data = mujoco.MjData(model)
     mj_robot = mujoco_robot.Robot(descriptor, model)
     data.qpos[2] = descriptor["default_root_height_m"]
@@ -173,6 +173,24 @@ def test_newton_and_plain_mujoco_agree_on_the_same_torques(exported):
         mujoco.mj_step(model, data)
     assert np.abs(robot.joint_pos[0].numpy() - data.qpos[mj_robot.qpos_adr]).max() < 2e-3
     assert abs(robot.root_pos_w[0, 2].item() - data.qpos[2]) < 2e-3
+
+
+def test_plain_mujoco_keeps_its_own_solver_iterations_unless_asked_for_trainings(exported, tmp_path):
+    _, _, _, out = exported
+    descriptor = read_io_descriptor(str(out / "io_descriptor.yaml"))
+    mjcf = sim2mujoco.default_mjcf(descriptor)
+    defaults = mujoco.MjModel.from_xml_string("<mujoco/>").opt
+    model = mujoco_robot.build_model(descriptor, mjcf)
+    assert (model.opt.iterations, model.opt.ls_iterations) == (defaults.iterations, defaults.ls_iterations)
+    trained = mujoco_robot.build_model(descriptor, mjcf, solver="training")
+    assert (trained.opt.iterations, trained.opt.ls_iterations) == (descriptor["solver"]["iterations"],
+                                                                   descriptor["solver"]["ls_iterations"])
+    assert trained.opt.iterations < defaults.iterations
+    with pytest.raises(ValueError, match="solver must be one of mujoco, training, got 'newton'"):
+        mujoco_robot.build_model(descriptor, mjcf, solver="newton")
+    code, stdout, stderr = run_command("sim2mujoco", "--io", out / "io_descriptor.yaml", "--policy",
+                                       out / "policy.pt", "--solver", "newton")
+    assert code == 2 and "--solver" in stderr and "'mujoco', 'training'" in stderr, stdout + stderr
 
 
 def check_sim2mujoco_runs(out: Path, episodes: int = 1) -> None:

@@ -1,6 +1,7 @@
-"""The robot as plain MuJoCo runs it, from an IO descriptor alone: its model built like the training import
-(`build_model`), and the descriptor's joints in that model (`Robot`: index maps, the actuator model). Used by
-`agile sim2mujoco` and by the policies it runs (`mujoco_policy`); nothing of the training framework is used."""
+"""The robot as plain MuJoCo runs it, from an IO descriptor alone: its model built like the training import, with
+MuJoCo's own solver iterations or training's (`build_model`), and the descriptor's joints in that model (`Robot`: index maps, the actuator
+model). Used by `agile sim2mujoco` and by the policies it runs (`mujoco_policy`); nothing of the training framework is
+used."""
 
 from __future__ import annotations
 
@@ -15,8 +16,20 @@ def rotate_inverse(quat_wxyz: np.ndarray, v: np.ndarray) -> np.ndarray:
     return rot.T @ v
 
 
-def build_model(descriptor: dict, mjcf: str):
+SOLVER_SETTINGS = ("mujoco", "training")
+"""`build_model`'s solver: MuJoCo's own iterations, or training's cap from the descriptor."""
+
+
+def build_model(descriptor: dict, mjcf: str, solver: str = "mujoco"):
+    """The MuJoCo model of `mjcf` as the descriptor's training imported it. `solver`: "mujoco" takes MuJoCo's default
+    iterations (100, line search 50; also over a file's own, such as the G1 MJX file's 5 and 8); "training" takes
+    training's cap from the descriptor (`solver`: 10, 20), which buys batched throughput with unconverged contacts.
+    Capped, the Go1's contact forces blow up within five steps of a walk (3,300 m/s), so a policy is checked against
+    a converged solver by default."""
     import mujoco
+
+    if solver not in SOLVER_SETTINGS:
+        raise ValueError(f"solver must be one of {', '.join(SOLVER_SETTINGS)}, got {solver!r}")
 
     spec = mujoco.MjSpec.from_file(mjcf)
     # like the training import: robot colliders on, no self-collision, friction cones (condim 3)
@@ -29,10 +42,12 @@ def build_model(descriptor: dict, mjcf: str):
                             contype=0, conaffinity=1, condim=3)
     spec.option.timestep = descriptor["physics_dt_s"]
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    solver = descriptor.get("solver", {})
-    if "iterations" in solver:
-        spec.option.iterations = solver["iterations"]
-        spec.option.ls_iterations = solver["ls_iterations"]
+    if solver == "training":
+        spec.option.iterations = descriptor["solver"]["iterations"]
+        spec.option.ls_iterations = descriptor["solver"]["ls_iterations"]
+    else:  # a new spec's options are MuJoCo's defaults
+        defaults = mujoco.MjSpec().option
+        spec.option.iterations, spec.option.ls_iterations = defaults.iterations, defaults.ls_iterations
     model = spec.compile()
     model.actuator_gainprm[:] = 0.0  # torques come from the descriptor's actuator model (qfrc_applied)
     model.actuator_biasprm[:] = 0.0

@@ -9,7 +9,8 @@
 Nothing of the training framework is used: observations and actions are rebuilt from the descriptor (or, for
 a LEAPP bundle, computed by the bundle's own graph through LEAPP's runtime from raw MuJoCo state),
 the joint torques come from the descriptor's gains and DC-motor limits (computed at the physics rate and
-applied as joint forces), and the robot collides with a ground plane. A recurrent policy carries its hidden
+applied as joint forces), and the robot collides with a ground plane, with MuJoCo's own solver iterations
+(--solver training: training's cap, unconverged contacts as in training). A recurrent policy carries its hidden
 state from step to step and starts each episode from zeros. The actuator delays of training are not
 modelled. Reports fall rate and velocity tracking errors like `agile eval` (and the base-height error for a
 height command); writes JSON with --out. From Python: `sim2mujoco(io=..., policy=...)` or `sim2mujoco(bundle=...)`
@@ -30,7 +31,7 @@ from agile.errors import AgileError
 from agile.run.mujoco_commands import make_commands
 from agile.deploy.mujoco_policy import (BundlePolicy, DescriptorPolicy, OnnxPolicy, TorchScriptPolicy,  # noqa: F401
                                      bundle_descriptor, read_bundle, yaml_load)
-from agile.deploy.mujoco_robot import Robot, build_model, rotate_inverse
+from agile.deploy.mujoco_robot import SOLVER_SETTINGS, Robot, build_model, rotate_inverse
 
 IO_DESCRIPTOR_VERSION = 2  # what agile/rl_env/io_descriptor_file.py writes (this script does not import it)
 FALL_TILT_RAD = math.radians(60.0)
@@ -38,14 +39,14 @@ FALL_HEIGHT_FRACTION = 0.5  # of the default root height
 
 
 def run(descriptor: dict, mjcf: str, make_policy, episodes: int, duration_s: float, command=None,
-        seed: int = 0, on_frame=None, height_ramp=None) -> dict:
+        seed: int = 0, on_frame=None, height_ramp=None, solver: str = "mujoco") -> dict:
     """`make_policy(robot)` gives the controller (DescriptorPolicy or BundlePolicy): reset() at the start of an
     episode, then once per control step it sets the robot's joint targets from the MuJoCo state and the command
     (`agile.run.mujoco_commands`: drawn as in training, `command` fixed, or a `height_ramp` (top, bottom))."""
     import mujoco
 
     rng = np.random.default_rng(seed)
-    model = build_model(descriptor, mjcf)
+    model = build_model(descriptor, mjcf, solver)
     data = mujoco.MjData(model)
     robot = Robot(descriptor, model)
     policy = make_policy(robot)
@@ -128,17 +129,20 @@ class MujocoVideo:
 
 def sim2mujoco(*, bundle: str | None = None, io: str | None = None, policy: str | None = None,
                mjcf: str | None = None, episodes: int = 3, duration_s: float = 10.0, command=None, height_ramp=None,
-               seed: int = 0, video: str | None = None) -> dict:
+               seed: int = 0, video: str | None = None, solver: str = "mujoco") -> dict:
     """Run an exported policy in plain MuJoCo for `episodes` episodes of `duration_s` from the default pose: a LEAPP
     `bundle` (its TASK.yaml), or the IO descriptor `io` with the TorchScript or ONNX file `policy`. `mjcf`: the robot
     (default: the asset package's file the descriptor names); `command`: a fixed command (VX VY WZ [HEIGHT], or one
     HEIGHT), `height_ramp`: (top, bottom) of a height command going down and up, else commands drawn per episode with
-    `seed` as in training; `video`: the rollout rendered headless into this mp4. Returns the metrics (fall rate,
+    `seed` as in training; `video`: the rollout rendered headless into this mp4; `solver`: MuJoCo's own solver
+    iterations ("mujoco") or training's cap ("training", `build_model`). Returns the metrics (fall rate,
     tracking errors) and what was run. Raises AgileError for inputs it cannot run, before anything runs."""
     by_bundle = bundle is not None and io is None and policy is None
     by_descriptor = bundle is None and io is not None and policy is not None
     if not (by_bundle or by_descriptor):
         raise AgileError("give either --bundle, or --io and --policy")
+    if solver not in SOLVER_SETTINGS:
+        raise AgileError(f"solver must be one of {', '.join(SOLVER_SETTINGS)}, got {solver!r}")
     if bundle:
         descriptor = bundle_descriptor(read_bundle(bundle))
 
@@ -165,13 +169,13 @@ def sim2mujoco(*, bundle: str | None = None, io: str | None = None, policy: str 
     recorder = MujocoVideo(video, mjcf, round(1.0 / descriptor["control_dt_s"])) if video else None
     try:
         metrics = run(descriptor, mjcf, make_policy, episodes, duration_s, command, seed, on_frame=recorder,
-                      height_ramp=height_ramp)
+                      height_ramp=height_ramp, solver=solver)
     finally:
         if recorder is not None:
             recorder.close()
             print(f"[sim2mujoco] video ({recorder.video.frames} frames) written to {video}")
     metrics.update({"io_descriptor": io, "policy": policy, "bundle": bundle, "mjcf": mjcf, "command": command,
-                    "duration_s": duration_s})
+                    "duration_s": duration_s, "solver": solver})
     return metrics
 
 
@@ -193,13 +197,16 @@ def main(argv=None) -> None:
                         help="a height command going TOP -> BOTTOM -> TOP over each episode, held at TOP for its last "
                              "second; reports the height error and the final height (HeightTracking-G1)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the commands drawn per episode")
+    parser.add_argument("--solver", choices=SOLVER_SETTINGS, default="mujoco",
+                        help="MuJoCo's own solver iterations (100, line search 50), or training's cap from the IO "
+                             "descriptor (10, 20: unconverged contacts, as the policy was trained)")
     parser.add_argument("--out", default=None, help="write the metrics as JSON here")
     parser.add_argument("--video", default=None, metavar="PATH.mp4",
                         help="render the rollout headless into an mp4 (camera following the robot)")
     args = arguments.parse(parser, argv)
     metrics = sim2mujoco(bundle=args.bundle, io=args.io, policy=args.policy, mjcf=args.mjcf, episodes=args.episodes,
                          duration_s=args.duration_s, command=args.command, height_ramp=args.height_ramp,
-                         seed=args.seed, video=args.video)
+                         seed=args.seed, video=args.video, solver=args.solver)
     print(json.dumps(metrics, indent=2))
     if args.out:
         Path(args.out).write_text(json.dumps(metrics, indent=2))
