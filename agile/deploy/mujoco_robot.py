@@ -24,8 +24,8 @@ def build_model(descriptor: dict, mjcf: str, solver: str = "mujoco"):
     """The MuJoCo model of `mjcf` as the descriptor's training imported it. `solver`: "mujoco" takes MuJoCo's default
     iterations (100, line search 50; also over a file's own, such as the G1 MJX file's 5 and 8); "training" takes
     training's cap from the descriptor (`solver`: 10, 20), which buys batched throughput with unconverged contacts.
-    Capped, the Go1's contact forces blow up within five steps of a walk (3,300 m/s), so a policy is checked against
-    a converged solver by default."""
+    Capped, the Go1's contacts blow up within five steps of a walk (the trunk flung at 3,300 m/s), so a policy is
+    checked against a converged solver by default."""
     import mujoco
 
     if solver not in SOLVER_SETTINGS:
