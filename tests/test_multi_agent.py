@@ -238,3 +238,41 @@ def test_commands_train_eval_play_and_export_a_multi_agent_task(tmp_path, capsys
     assert code == 0 and (tmp_path / "exported" / "t1" / "io_descriptor.yaml").is_file(), out + err
     code, out, err = run("train", "--init_policy", f"robot={shipped / 'Velocity-T1-v0.pt'}")
     assert code == 2 and err.startswith("error: --init_policy takes GROUP=PATH with GROUP one of ['g1', 't1']"), err
+
+
+def test_each_go1_sees_the_other_in_its_own_heading_frame():
+    """Shared-Go1: go1_a at the origin heading +x, go1_b 1 m ahead and 2 m to its left heading +y, walking +x at
+    0.5 m/s. a sees b at (1, 2), moving (0.5, 0); b sees a behind and to its left, (-2, 1), moving (0, 0.5) in b's
+    frame; a b 5 m ahead is seen at the 3 m clip."""
+    from agile.tasks.multi_agent.velocity_agents import other_robot_in_heading_frame
+
+    world = gym.make("Shared-Go1-Velocity-v0", num_envs=1, device="cpu", seed=0).unwrapped
+    try:
+        world.reset()
+        go1_a, go1_b = world.scene["go1_a"], world.scene["go1_b"]
+        height_m = float(go1_a.root_pose_w[0, 2])
+
+        def place(robot, x_m: float, y_m: float, quat_xyzw: list[float], vx_mps: float = 0.0) -> None:
+            pose = torch.tensor([[x_m, y_m, height_m, *quat_xyzw]])
+            pose[:, :2] += world.env_origins[:, :2]
+            velocity = torch.tensor([[vx_mps, 0.0, 0.0, 0.0, 0.0, 0.0]])
+            robot.write_root_state(pose, velocity, torch.tensor([True]))
+
+        half = 0.5 ** 0.5
+        place(go1_a, 0.0, 0.0, [0.0, 0.0, 0.0, 1.0])
+        place(go1_b, 1.0, 2.0, [0.0, 0.0, half, half], vx_mps=0.5)
+        world.sim.forward()
+        world.scene.update()
+        seen_by_a = other_robot_in_heading_frame(world.agents["go1_a"], max_distance_m=3.0)
+        seen_by_b = other_robot_in_heading_frame(world.agents["go1_b"], max_distance_m=3.0)
+        torch.testing.assert_close(seen_by_a[0], torch.tensor([1.0, 2.0, 0.5, 0.0]), atol=1e-3, rtol=0)
+        torch.testing.assert_close(seen_by_b[0], torch.tensor([-2.0, 1.0, 0.0, 0.5]), atol=1e-3, rtol=0)
+        place(go1_b, 5.0, 0.0, [0.0, 0.0, 0.0, 1.0])
+        world.sim.forward()
+        world.scene.update()
+        seen_by_a = other_robot_in_heading_frame(world.agents["go1_a"], max_distance_m=3.0)
+        torch.testing.assert_close(seen_by_a[0, :2], torch.tensor([3.0, 0.0]), atol=1e-3, rtol=0)
+        term_dims = world.agents["go1_a"].observation_manager.term_dims
+        assert term_dims["policy"]["other_robot"] == 4 * 5 and term_dims["critic"]["other_robot"] == 4  # 5-step history
+    finally:
+        world.close()

@@ -6,7 +6,8 @@ Everything is derived from the robot and the observation terms, not from term na
   (roll, yaw) changes sign, one turning about y (pitch) does not;
 - an observation term is mirrored by what its function returns: polar vectors (linear velocity, gravity)
   flip y, pseudo-vectors (angular velocity) flip x and z, velocity commands flip vy and wz, joint terms and
-  the last action use the joint map. A term without a rule is an error naming it.
+  the last action use the joint map; a term function of a task family declares its own with `@mirrored_by`. A term
+  without a rule is an error naming it.
 Each group becomes one index permutation and one sign vector, built once: mirror(x) = x[:, perm] * sign.
 
 Use in an agent config: `algorithm.symmetry_cfg = {"use_data_augmentation": True, "use_mirror_loss": False,
@@ -27,13 +28,22 @@ from agile.rl_env.managers.manager_base import collect_terms
 from agile.rl_env.mdp import observations as obs_terms
 
 __all__ = ["GroupMirror", "body_mirror", "feet_scan_mirror", "group_mirror", "joint_mirror", "lr_mirror",
-           "mirror_name", "mirror_within"]
+           "mirror_name", "mirror_within", "mirrored_by"]
 
 POLAR_VECTOR = [1.0, -1.0, 1.0]
 PSEUDO_VECTOR = [-1.0, 1.0, -1.0]
 VELOCITY_COMMAND = [1.0, -1.0, -1.0]  # vx, vy, wz
 
 _SIDE = re.compile(r"(left|right)", re.IGNORECASE)
+
+
+def mirrored_by(perm: list[int], sign: list[float]):
+    """Declare an observation term function's left-right mirror: its output (one step of it) mirrored is
+    `x[perm] * sign`. For terms outside this module's table (a task family's own)."""
+    def declare(func):
+        func.lr_mirror = (list(perm), list(sign))
+        return func
+    return declare
 
 
 def _swap_side(name: str) -> str:
@@ -154,6 +164,11 @@ class GroupMirror:
     def _term_mirror(self, env, group_name, term_name, term, dim, action_perm, action_sign):
         func = term.func
         where = f"observation '{group_name}' term '{term_name}'"
+        declared = getattr(func, "lr_mirror", None)
+        if declared is not None:
+            if len(declared[0]) != dim:
+                raise ValueError(f"{where}: its declared mirror covers {len(declared[0])} values, the term gives {dim}")
+            return declared
         if func in (obs_terms.base_lin_vel, obs_terms.projected_gravity):
             return [0, 1, 2], POLAR_VECTOR
         if func is obs_terms.base_ang_vel:

@@ -3,8 +3,10 @@ both driven by one policy (a `shared` agent group: their samples batched into on
 
 The multi-robot system's SHARED example (two Go2s through one policy), with the Go1. Each agent's MDP is
 Velocity-Flat-Go1-v0's (commands, actions, observations, rewards, terminations, events with its domain randomisation)
-term for term, written for "robot" and mapped onto its Go1 by `scene_names`; added: the penalty for touching the
-other robot. Resets stay within ±0.3 m of the spawn points, so the robots never start inside each other. The single
+term for term, written for "robot" and mapped onto its Go1 by `scene_names`; added: where the other Go1 is (its
+planar position and velocity in this one's heading frame, to the policy and the critic: a robot blind to the other
+could not keep clear of it, and a touch of the trunks ends the episode as any trunk contact does), and the penalty for
+touching the other robot. Resets stay within ±0.3 m of the spawn points, so the robots never start inside each other. The single
 task's curriculum (the action-rate weights' ramps) does not run here: the agents keep its initial weights.
 """
 
@@ -14,11 +16,12 @@ import dataclasses
 
 from agile.assets.unitree_go1 import go1_robot_cfg
 from agile.marl import AgentCfg, MultiAgentEnvCfg
+from agile.rl_env.managers import ObsTerm
 from agile.sim import ContactSensorCfg, SceneCfg
-from agile.tasks.multi_agent.velocity_agents import touch_penalty, velocity_scene_names
+from agile.tasks.multi_agent.velocity_agents import other_robot_obs, touch_penalty, velocity_scene_names
 from agile.tasks.velocity.go1 import velocity_env_cfg as go1_task
-from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, uniform_root_reset,
-                                                  velocity_sim_cfg)
+from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, VelocityCriticObsCfg,
+                                                  VelocityPolicyObsCfg, uniform_root_reset, velocity_sim_cfg)
 from agile.utils.config import configclass
 
 ROBOTS = ("go1_a", "go1_b")
@@ -50,15 +53,34 @@ SCENE = SceneCfg(
 
 
 @configclass
+class PolicyObsCfg(VelocityPolicyObsCfg):
+    other_robot: ObsTerm = other_robot_obs()
+
+
+@configclass
+class CriticObsCfg(VelocityCriticObsCfg):
+    other_robot = other_robot_obs()
+
+
+@configclass
+class ObservationsCfg:
+    """The single task's groups, each with where the other Go1 is after its own terms."""
+
+    policy = PolicyObsCfg(controlled_joint_pos=SINGLE.observations.policy.controlled_joint_pos,
+                          controlled_joint_vel=SINGLE.observations.policy.controlled_joint_vel)
+    critic = CriticObsCfg()
+
+
+@configclass
 class RewardsCfg(go1_task.RewardsCfg):
     touch_other_robot = touch_penalty(TOUCH_SENSOR)  # both agents pay it
 
 
-def go1_agent_cfg(entity: str) -> AgentCfg:
-    """Velocity-Flat-Go1-v0's MDP driving `entity` at its 50 Hz."""
+def go1_agent_cfg(entity: str, other: str) -> AgentCfg:
+    """Velocity-Flat-Go1-v0's MDP driving `entity` at its 50 Hz, seeing where `other` is."""
     return AgentCfg(
-        decimation=SINGLE.decimation, scene_names=velocity_scene_names(entity),
-        commands=go1_task.CommandsCfg(), actions=go1_task.ActionsCfg(), observations=go1_task.ObservationsCfg(),
+        decimation=SINGLE.decimation, scene_names=velocity_scene_names(entity, other_robot=other),
+        commands=go1_task.CommandsCfg(), actions=go1_task.ActionsCfg(), observations=ObservationsCfg(),
         rewards=RewardsCfg(), terminations=SINGLE.terminations,
         events=dataclasses.replace(SINGLE.events, reset_base=uniform_root_reset(xy_range_m=RESET_XY_RANGE_M)))
 
@@ -69,4 +91,4 @@ class SharedGo1VelocityEnvCfg(MultiAgentEnvCfg):
     episode_length_s = SINGLE.episode_length_s
     scene = SCENE
     sim = velocity_sim_cfg(max_contacts_per_world=2 * SINGLE.sim.solver.nconmax)  # the single task's, per robot
-    agents = {"go1_a": go1_agent_cfg("go1_a"), "go1_b": go1_agent_cfg("go1_b")}
+    agents = {"go1_a": go1_agent_cfg("go1_a", other="go1_b"), "go1_b": go1_agent_cfg("go1_b", other="go1_a")}

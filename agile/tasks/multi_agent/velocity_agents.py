@@ -1,17 +1,50 @@
 """What the multi-agent velocity tasks share: the names an agent's velocity MDP (written for one "robot") uses for its
-robot's entity and sensors in a world of several robots, and the penalty for touching another robot."""
+robot's entity and sensors in a world of several robots, the other robot as a robot sees it, and the penalty for
+touching another robot."""
 
 from __future__ import annotations
 
-from agile.rl_env.managers import RewTerm, SceneEntityCfg
+import torch
+
+from agile.rl_env.managers import ROBOT, ObsTerm, RewTerm, SceneEntityCfg
+from agile.rl_env.mdp.symmetry import mirrored_by
 from agile.tasks.velocity import mdp
 from agile.tasks.velocity.velocity_common import BASE_HEIGHT_SENSOR, CONTACT_SENSOR
 
+OTHER_ROBOT = "other_robot"
+"""The name an agent's terms use for the world's other robot (`velocity_scene_names(..., other_robot=...)`)."""
 
-def velocity_scene_names(entity: str) -> dict[str, str]:
+
+def velocity_scene_names(entity: str, other_robot: str | None = None) -> dict[str, str]:
     """The velocity MDP's "robot" and its sensors -> `entity` and the world's `<entity>_contact_forces` and
-    `<entity>_base_height` sensors."""
-    return {"robot": entity, CONTACT_SENSOR: f"{entity}_contact_forces", BASE_HEIGHT_SENSOR: f"{entity}_base_height"}
+    `<entity>_base_height` sensors; with `other_robot`, the name `OTHER_ROBOT` -> that entity."""
+    names = {"robot": entity, CONTACT_SENSOR: f"{entity}_contact_forces", BASE_HEIGHT_SENSOR: f"{entity}_base_height"}
+    if other_robot is not None:
+        names[OTHER_ROBOT] = other_robot
+    return names
+
+
+@mirrored_by([0, 1, 2, 3], [1.0, -1.0, 1.0, -1.0])  # mirrored left-right: the other robot's y and vy flip
+def other_robot_in_heading_frame(env, max_distance_m: float, asset_cfg: SceneEntityCfg = ROBOT,
+                                 other_cfg: SceneEntityCfg = SceneEntityCfg(OTHER_ROBOT)) -> torch.Tensor:
+    """(N, 4): the other robot's planar position [m] and velocity [m/s] relative to this robot's root, in this robot's
+    heading frame (x forward, y left, gravity-aligned); the position clipped to +-`max_distance_m` per axis (what is
+    farther does not change what to do now)."""
+    robot, other = env.scene[asset_cfg.name], env.scene[other_cfg.name]
+    cos, sin = torch.cos(robot.heading_w), torch.sin(robot.heading_w)
+
+    def to_heading_frame(v_w: torch.Tensor) -> torch.Tensor:
+        return torch.stack((cos * v_w[:, 0] + sin * v_w[:, 1], -sin * v_w[:, 0] + cos * v_w[:, 1]), dim=1)
+
+    position = to_heading_frame(other.root_pos_w[:, :2] - robot.root_pos_w[:, :2]).clamp(-max_distance_m,
+                                                                                         max_distance_m)
+    velocity = to_heading_frame(other.root_lin_vel_w[:, :2] - robot.root_lin_vel_w[:, :2])
+    return torch.cat((position, velocity), dim=1)
+
+
+def other_robot_obs(max_distance_m: float = 3.0) -> ObsTerm:
+    """`other_robot_in_heading_frame` as an observation term (noise-free: the positions come from the world)."""
+    return ObsTerm(func=other_robot_in_heading_frame, params={"max_distance_m": max_distance_m})
 
 
 def touch_penalty(sensor_name: str) -> RewTerm:
