@@ -24,6 +24,9 @@ def free_envs_after_each_module():
 
 
 def pytest_collection_modifyitems(config, items):
+    # the slow tests first (a stable sort: the same order on every xdist worker), so that the parallel run does not end
+    # on one of them while the other workers idle
+    items.sort(key=lambda item: "slow" not in item.keywords)
     if wp.is_cuda_available():
         return
     skip = pytest.mark.skip(reason="needs a CUDA device")

@@ -24,6 +24,7 @@ def digests(out: str) -> dict[int, str]:
     return {int(r): d for r, d in re.findall(r"\[agile\] rank (\d+): weights sha256 (\w+)", out)}
 
 
+@pytest.mark.slow
 def test_two_ranks_resume_train_and_end_with_the_same_weights(tmp_path):
     """Two ranks resume a checkpoint (here one a single process trained), each with its own seed (its own envs), and
     end with the same weights, which needs the all-reduced gradients; rank 0 alone writes logs, checkpoints and the

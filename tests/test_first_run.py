@@ -55,6 +55,7 @@ def interruptible() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
+@pytest.mark.slow
 def test_ctrl_c_in_a_training_saves_a_checkpoint_and_ends_in_a_line(tmp_path):
     process = subprocess.Popen(
         [sys.executable, "-m", "agile", "train", "--task", "Velocity-T1-v0", "--device", "cpu", "--num_envs", "2",

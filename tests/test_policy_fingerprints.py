@@ -118,6 +118,7 @@ def test_a_multi_agent_replay_names_the_agent_and_term_that_moved(multi_agent_po
     assert first_divergence(others(recording), others(reweighted)) is None
 
 
+@pytest.mark.slow
 def test_the_replay_holds_when_torch_rounds_as_another_cpu_would():
     """The check is portable: with torch's kernels at another instruction-set level and MKL's reproducible mode
     (read when torch loads, so in a fresh process), each step's matrix products and term math round differently, as

@@ -88,6 +88,7 @@ def test_help_of_every_command(command, capsys):
             and "terrain=null" in out, out
 
 
+@pytest.mark.slow
 def test_a_quiet_run_prints_no_library_noise(tmp_path):
     code, out = run_process("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "1",
                             "--device", "cpu", "--log_root", str(tmp_path), "agent.num_steps_per_env=4",
@@ -467,6 +468,7 @@ def test_the_cpu_fallback_says_the_env_count_it_builds(num_envs, said, capsys):
     assert f"no GPU found: {said}" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_the_library_is_quiet_by_default():
     """The README's gym.make snippet in a fresh interpreter (the process's output is the point): nothing from Warp,
     its banner, kernel loads and CUDA-driver warning included."""

@@ -175,6 +175,7 @@ def test_unknown_terrain_collision_lists_the_valid_names():
         Simulation(SimCfg(), scene, 1, "cpu", 0.02)
 
 
+@pytest.mark.slow
 def test_two_entities_on_a_terrain_rest_on_each_other_and_on_the_terrain():
     # the box-box pair goes through Newton's pipeline (explicit pairs), each box and the terrain through the probes
     from agile.sim import BoxShapeCfg, RigidObjectCfg

@@ -3,12 +3,15 @@ evaluated as they appear (or after the training) and the run reports the first o
 
 import json
 
+import pytest
+
 from commands import FLAT_GROUND_ARGS
 
 from agile.run.recipes import RECIPES
 from agile.run.time_to_policy import main
 
 
+@pytest.mark.slow
 def test_the_run_stops_at_the_first_checkpoint_that_meets_the_criteria(tmp_path, capsys):
     out = tmp_path / "t1"
     code = main(["--task", "Velocity-T1-v0", "--budget_s", "300", "--num_envs", "2", "--device", "cpu",
@@ -26,6 +29,7 @@ def test_the_run_stops_at_the_first_checkpoint_that_meets_the_criteria(tmp_path,
     assert "Learning iteration 0" in (tmp_path / "t1.log").read_text()  # the training's own log beside it
 
 
+@pytest.mark.slow
 def test_several_ranks_train_through_torchrun_on_the_cpu(tmp_path, capsys):
     """--gpus N with --device cpu: N CPU ranks (gloo) under torchrun, the path of a several-GPU run, and the
     checkpoints rank 0 wrote evaluated after the training."""
@@ -52,6 +56,7 @@ def test_a_run_without_an_evaluated_checkpoint_writes_no_curve(tmp_path):
     assert not (tmp_path / "curve.png").exists()
 
 
+@pytest.mark.slow
 def test_seeds_run_one_after_another_evaluated_after_the_training_and_summarised(tmp_path, capsys):
     """--seeds: one training per seed (its own JSON and log), then the summary over them, one curve per seed. Each
     training runs undisturbed (here to its third and last iteration, well inside the budget: on a machine compiling
