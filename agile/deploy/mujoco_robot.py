@@ -1,7 +1,7 @@
 """The robot as plain MuJoCo runs it, from an IO descriptor alone: its model built like the training import, with
-MuJoCo's own solver iterations or training's (`build_model`), and the descriptor's joints in that model (`Robot`: index maps, the actuator
-model). Used by `agile sim2mujoco` and by the policies it runs (`mujoco_policy`); nothing of the training framework is
-used."""
+MuJoCo's own solver iterations or training's (`build_model`), and the descriptor's joints in that model (`Robot`:
+index maps, the actuator model). Used by `agile sim2mujoco` and by the policies it runs (`mujoco_policy`); nothing of
+the training framework is used."""
 
 from __future__ import annotations
 

@@ -23,6 +23,12 @@ def quat_rotate_inverse(q_xyzw: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
     return v - w * t + torch.cross(q_vec, t, dim=-1)
 
 
+def world_to_heading_frame_xy(heading_rad: torch.Tensor, v_w: torch.Tensor) -> torch.Tensor:
+    """(N, 2) planar world vectors v_w[:, :2] in the frame turned by `heading_rad` (N,) about z: x forward, y left."""
+    cos, sin = torch.cos(heading_rad), torch.sin(heading_rad)
+    return torch.stack((cos * v_w[:, 0] + sin * v_w[:, 1], -sin * v_w[:, 0] + cos * v_w[:, 1]), dim=1)
+
+
 def quat_conjugate(q_xyzw: torch.Tensor) -> torch.Tensor:
     """The inverse rotation of a unit quaternion."""
     return torch.cat((-q_xyzw[..., :3], q_xyzw[..., 3:]), dim=-1)

@@ -10,6 +10,7 @@ from agile.rl_env.managers import ROBOT, ObsTerm, RewTerm, SceneEntityCfg
 from agile.rl_env.mdp.symmetry import mirrored_by
 from agile.tasks.velocity import mdp
 from agile.tasks.velocity.velocity_common import BASE_HEIGHT_SENSOR, CONTACT_SENSOR
+from agile.utils.math import world_to_heading_frame_xy
 
 OTHER_ROBOT = "other_robot"
 """The name an agent's terms use for the world's other robot (`velocity_scene_names(..., other_robot=...)`)."""
@@ -31,15 +32,9 @@ def other_robot_in_heading_frame(env, max_distance_m: float, asset_cfg: SceneEnt
     heading frame (x forward, y left, gravity-aligned); the position clipped to +-`max_distance_m` per axis (what is
     farther does not change what to do now)."""
     robot, other = env.scene[asset_cfg.name], env.scene[other_cfg.name]
-    cos, sin = torch.cos(robot.heading_w), torch.sin(robot.heading_w)
-
-    def to_heading_frame(v_w: torch.Tensor) -> torch.Tensor:
-        return torch.stack((cos * v_w[:, 0] + sin * v_w[:, 1], -sin * v_w[:, 0] + cos * v_w[:, 1]), dim=1)
-
-    position = to_heading_frame(other.root_pos_w[:, :2] - robot.root_pos_w[:, :2]).clamp(-max_distance_m,
-                                                                                         max_distance_m)
-    velocity = to_heading_frame(other.root_lin_vel_w[:, :2] - robot.root_lin_vel_w[:, :2])
-    return torch.cat((position, velocity), dim=1)
+    position = world_to_heading_frame_xy(robot.heading_w, other.root_pos_w - robot.root_pos_w)
+    velocity = world_to_heading_frame_xy(robot.heading_w, other.root_lin_vel_w - robot.root_lin_vel_w)
+    return torch.cat((position.clamp(-max_distance_m, max_distance_m), velocity), dim=1)
 
 
 def other_robot_obs(max_distance_m: float = 3.0) -> ObsTerm:

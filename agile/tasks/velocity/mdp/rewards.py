@@ -11,6 +11,7 @@ import torch
 from agile.rl_env.managers import ROBOT, SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
 from agile.rl_env.mdp.rewards import equal_foot_force
+from agile.utils.math import world_to_heading_frame_xy
 
 __all__ = ["base_height_in_threshold", "equal_foot_force_if_null_cmd", "flat_orientation_if_null_cmd",
            "no_undesired_base_velocity_exp", "no_undesired_base_velocity_exp_if_null_cmd",
@@ -29,9 +30,7 @@ def null_command(env, command_name: str) -> torch.Tensor:
 
 def _lin_vel_yaw_frame(robot) -> torch.Tensor:
     """(N, 2) root linear velocity in the yaw frame (the base heading, gravity-aligned) [m/s]."""
-    vel_w, heading = robot.root_lin_vel_w, robot.heading_w
-    cos, sin = torch.cos(heading), torch.sin(heading)
-    return torch.stack((cos * vel_w[:, 0] + sin * vel_w[:, 1], -sin * vel_w[:, 0] + cos * vel_w[:, 1]), dim=1)
+    return world_to_heading_frame_xy(robot.heading_w, robot.root_lin_vel_w)
 
 
 # -- tracking ------------------------------------------------------------------------------------------
