@@ -31,15 +31,16 @@ def heap_frozen():
 
 @contextmanager
 def no_collection_while_capturing():
-    """Python's garbage collector off while a CUDA graph records (collected first, so that what is garbage already
-    goes now). A collection that starts inside a capture can free an object whose destructor calls CUDA, a torch
-    `CUDAGraph` of an env built before among them; its `reset` is not permitted while a stream captures and fails
-    the capture (seen 2026-12-02 on an H200: `agile eval_all` at its seventh task, Warp CUDA error 901). Nested
-    captures (the env step records the physics loop) leave it to the outermost."""
+    """Python's garbage collector off while a CUDA graph records. A collection that starts inside a capture can free
+    an object whose destructor calls CUDA, a torch `CUDAGraph` of an env built before among them; its `reset` is not
+    permitted while a stream captures and fails the capture (seen 2026-12-02 on an H200: `agile eval_all` at its
+    seventh task, Warp CUDA error 901). What is garbage already goes at the next collection after the capture. No
+    whole-heap collection first: it visits every object of the process (about a million with a simulator built, 0.6-1
+    s a capture on a CPU core), for nothing the disabled collector needs. Nested captures (the env step records the
+    physics loop) leave it to the outermost."""
     if not gc.isenabled():
         yield
         return
-    gc.collect()
     gc.disable()
     try:
         yield
