@@ -240,11 +240,15 @@ def test_commands_train_eval_play_and_export_a_multi_agent_task(tmp_path, capsys
     assert code == 2 and err.startswith("error: --init_policy takes GROUP=PATH with GROUP one of ['g1', 't1']"), err
 
 
+ROBOTS = ("go1_a", "go1_b")
+
+
 def test_each_go1_sees_the_other_in_its_own_heading_frame():
     """Shared-Go1: go1_a at the origin heading +x, go1_b 1 m ahead and 2 m to its left heading +y, walking +x at
     0.5 m/s. a sees b at (1, 2), moving (0.5, 0); b sees a behind and to its left, (-2, 1), moving (0, 0.5) in b's
-    frame; a b 5 m ahead is seen at the 3 m clip."""
-    from agile.tasks.multi_agent.velocity_agents import other_robot_in_heading_frame
+    frame; a b 5 m ahead is seen at the 3 m clip. The keep-clear penalty counts from 0.8 m between the roots: nothing
+    at 2.2 m or 5 m, half at 0.4 m, for both."""
+    from agile.tasks.multi_agent.velocity_agents import closeness_to_other_robot, other_robot_in_heading_frame
 
     world = gym.make("Shared-Go1-Velocity-v0", num_envs=1, device="cpu", seed=0).unwrapped
     try:
@@ -267,11 +271,22 @@ def test_each_go1_sees_the_other_in_its_own_heading_frame():
         seen_by_b = other_robot_in_heading_frame(world.agents["go1_b"], max_distance_m=3.0)
         torch.testing.assert_close(seen_by_a[0], torch.tensor([1.0, 2.0, 0.5, 0.0]), atol=1e-3, rtol=0)
         torch.testing.assert_close(seen_by_b[0], torch.tensor([-2.0, 1.0, 0.0, 0.5]), atol=1e-3, rtol=0)
+
+        def closeness() -> list[float]:
+            return [float(closeness_to_other_robot(world.agents[name], clearance_m=0.8)[0]) for name in ROBOTS]
+
+        assert closeness() == [0.0, 0.0]
         place(go1_b, 5.0, 0.0, [0.0, 0.0, 0.0, 1.0])
         world.sim.forward()
         world.scene.update()
         seen_by_a = other_robot_in_heading_frame(world.agents["go1_a"], max_distance_m=3.0)
         torch.testing.assert_close(seen_by_a[0, :2], torch.tensor([3.0, 0.0]), atol=1e-3, rtol=0)
+        assert closeness() == [0.0, 0.0]
+        place(go1_b, 0.0, 0.4, [0.0, 0.0, 0.0, 1.0])
+        world.sim.forward()
+        world.scene.update()
+        assert closeness() == pytest.approx([0.5, 0.5], abs=1e-3)
+        assert world.agents["go1_a"].reward_manager.get_term_cfg("keep_clear").weight < 0
         term_dims = world.agents["go1_a"].observation_manager.term_dims
         assert term_dims["policy"]["other_robot"] == 4 * 5 and term_dims["critic"]["other_robot"] == 4  # 5-step history
     finally:

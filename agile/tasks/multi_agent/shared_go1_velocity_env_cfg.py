@@ -5,8 +5,8 @@ The multi-robot system's SHARED example (two Go2s through one policy), with the 
 Velocity-Flat-Go1-v0's (commands, actions, observations, rewards, terminations, events with its domain randomisation)
 term for term, written for "robot" and mapped onto its Go1 by `scene_names`; added: where the other Go1 is (its
 planar position and velocity in this one's heading frame, to the policy and the critic: a robot blind to the other
-could not keep clear of it, and a touch of the trunks ends the episode as any trunk contact does), and the penalty for
-touching the other robot. Resets stay within ±0.3 m of the spawn points, so the robots never start inside each other.
+could not keep clear of it, and a touch of the trunks ends the episode as any trunk contact does), the penalty for
+coming within 0.8 m of it and the one for touching it. Resets stay within ±0.3 m of the spawn points, so the robots never start inside each other.
 The single task's curriculum (the action-rate weights' ramps) does not run here: the agents keep its initial weights.
 """
 
@@ -18,7 +18,8 @@ from agile.assets.unitree_go1 import go1_robot_cfg
 from agile.marl import AgentCfg, MultiAgentEnvCfg
 from agile.rl_env.managers import ObsTerm
 from agile.sim import ContactSensorCfg, SceneCfg
-from agile.tasks.multi_agent.velocity_agents import other_robot_obs, touch_penalty, velocity_scene_names
+from agile.tasks.multi_agent.velocity_agents import (keep_clear_penalty, other_robot_obs, touch_penalty,
+                                                    velocity_scene_names)
 from agile.tasks.velocity.go1 import velocity_env_cfg as go1_task
 from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, VelocityCriticObsCfg,
                                                   VelocityPolicyObsCfg, uniform_root_reset, velocity_sim_cfg)
@@ -73,6 +74,7 @@ class ObservationsCfg:
 
 @configclass
 class RewardsCfg(go1_task.RewardsCfg):
+    keep_clear = keep_clear_penalty()
     touch_other_robot = touch_penalty(TOUCH_SENSOR)  # both agents pay it
 
 

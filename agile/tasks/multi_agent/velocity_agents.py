@@ -1,6 +1,6 @@
 """What the multi-agent velocity tasks share: the names an agent's velocity MDP (written for one "robot") uses for its
-robot's entity and sensors in a world of several robots, the other robot as a robot sees it, and the penalty for
-touching another robot."""
+robot's entity and sensors in a world of several robots, the other robot as a robot sees it, and the penalties for
+coming close to and touching another robot."""
 
 from __future__ import annotations
 
@@ -40,6 +40,22 @@ def other_robot_in_heading_frame(env, max_distance_m: float, asset_cfg: SceneEnt
 def other_robot_obs(max_distance_m: float = 3.0) -> ObsTerm:
     """`other_robot_in_heading_frame` as an observation term (noise-free: the positions come from the world)."""
     return ObsTerm(func=other_robot_in_heading_frame, params={"max_distance_m": max_distance_m})
+
+
+def closeness_to_other_robot(env, clearance_m: float, asset_cfg: SceneEntityCfg = ROBOT,
+                             other_cfg: SceneEntityCfg = SceneEntityCfg(OTHER_ROBOT)) -> torch.Tensor:
+    """(N,): 1 - d / `clearance_m` for the planar distance d [m] between the two roots, 0 from `clearance_m` on."""
+    robot, other = env.scene[asset_cfg.name], env.scene[other_cfg.name]
+    distance_m = torch.linalg.vector_norm(other.root_pos_w[:, :2] - robot.root_pos_w[:, :2], dim=1)
+    return (1.0 - distance_m / clearance_m).clamp(min=0.0)
+
+
+def keep_clear_penalty(clearance_m: float = 0.8, weight: float = -2.0) -> RewTerm:
+    """`closeness_to_other_robot` as a penalty [per second]: the touch penalty alone comes too late and weighs little
+    (-1 per second of touching against up to 3 per second of velocity tracking), so a robot that tracks its command
+    into the other one loses almost nothing until they fall; this one grows from `clearance_m` between the roots (a
+    Go1 is 0.65 m long with its legs), -1 per second at half of it, before the bodies meet."""
+    return RewTerm(func=closeness_to_other_robot, weight=weight, params={"clearance_m": clearance_m})
 
 
 def touch_penalty(sensor_name: str) -> RewTerm:
