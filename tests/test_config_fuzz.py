@@ -155,14 +155,20 @@ FIELDS = {task: scalar_fields(task) for task in TASKS}
 
 
 def field_cases() -> list:
-    """Each field once: a path both tasks have (a command range, a reward weight, a terrain cell: validated by the
-    same code) on one of them, taking turns in path order; a path one task alone has (its actuator groups, its
-    joints) on that task. Both tasks' combined draws (`test_a_few_fields_at_once`) range over all their fields."""
+    """Each field once, two fields a build (a build and three steps cost about 1 s of CPU; 273 fields): a path both
+    tasks have (a command range, a reward weight, a terrain cell: validated by the same code) on one of them, taking
+    turns in path order; a path one task alone has (its actuator groups, its joints) on that task; the fields of a
+    task paired in path order. Both tasks' combined draws (`test_a_few_fields_at_once`) range over all their fields."""
     paths = {task: {field.path: field for field in FIELDS[task]} for task in TASKS}
     shared = sorted(set(paths[TASKS[0]]) & set(paths[TASKS[1]]))
     turn = {path: TASKS[i % len(TASKS)] for i, path in enumerate(shared)}
-    return [pytest.param(task, field, id=f"{task}:{field.path}") for task in TASKS for field in FIELDS[task]
-            if turn.get(field.path, task) == task]
+    cases = []
+    for task in TASKS:
+        fields = [field for field in FIELDS[task] if turn.get(field.path, task) == task]
+        for i in range(0, len(fields), 2):
+            pair = tuple(fields[i:i + 2])
+            cases.append(pytest.param(task, pair, id=f"{task}:" + "+".join(field.path for field in pair)))
+    return cases
 
 
 CASES = field_cases()
@@ -176,12 +182,18 @@ def private_cache(tmp_path_factory):
         yield
 
 
-@pytest.mark.parametrize("task, field", CASES)
+@pytest.mark.parametrize("task, fields", CASES)
 @settings(max_examples=1, deadline=None)  # one draw per field and run; the draws differ from run to run
 @given(data=st.data())
-def test_each_field_builds_and_steps_or_is_refused_by_name(task, field, data):
-    value = data.draw(values(field), label=field.path)
-    try_override(task, [(field, value)])
+def test_each_field_builds_and_steps_or_is_refused_by_name(task, fields, data):
+    """A refusal names one of the two fields: the one refused (try_override)."""
+    try_override(task, [(field, data.draw(values(field), label=field.path)) for field in fields])
+
+
+def test_the_pairs_cover_each_field_once():
+    covered = [(task, field.path) for case in CASES for task, fields in [case.values] for field in fields]
+    assert len(covered) == len(set(covered)) and len(CASES) < len(covered) <= 2 * len(CASES)
+    assert {path for _, path in covered} == {field.path for task in TASKS for field in FIELDS[task]}
 
 
 @pytest.mark.parametrize("task", TASKS)
