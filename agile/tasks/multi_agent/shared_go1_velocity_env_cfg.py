@@ -6,8 +6,9 @@ Velocity-Flat-Go1-v0's (commands, actions, observations, rewards, terminations, 
 term for term, written for "robot" and mapped onto its Go1 by `scene_names`; added: where the other Go1 is (its
 planar position and velocity in this one's heading frame, to the policy and the critic: a robot blind to the other
 could not keep clear of it, and a touch of the trunks ends the episode as any trunk contact does), the penalty for
-coming within 0.8 m of it and the one for touching it. Resets stay within ±0.3 m of the spawn points, so the robots never start inside each other.
-The single task's curriculum (the action-rate weights' ramps) does not run here: the agents keep its initial weights.
+coming within 0.8 m of it and the one for touching it. Resets stay within ±0.3 m of the spawn points, so the robots
+never start inside each other. The single task's curriculum (the action-rate weights' ramps) does not run here: the
+agents keep its initial weights.
 """
 
 from __future__ import annotations
