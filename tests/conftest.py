@@ -23,23 +23,6 @@ def free_envs_after_each_module():
     gc.collect()
 
 
-def pytest_configure(config):
-    """The libraries every test imports, imported once and moved out of the garbage collector's whole-heap passes
-    (`gc.freeze`): they live as long as the worker, and visiting their million objects in each of the worker's few
-    dozen generation-2 collections found nothing to free (about a tenth of the smoke tests' time went to the
-    collector; 5% less time with them frozen, 2026-12-02)."""
-    import gc
-
-    import gymnasium  # noqa: F401
-    import mujoco_warp  # noqa: F401
-    import newton  # noqa: F401
-
-    import agile.tasks  # noqa: F401
-
-    gc.collect()
-    gc.freeze()
-
-
 def pytest_collection_modifyitems(config, items):
     # the slow tests first (a stable sort: the same order on every xdist worker), so that the parallel run does not end
     # on one of them while the other workers idle

@@ -11,15 +11,6 @@ import pytest
 from agile.utils.heap import heap_frozen, no_collection_while_capturing
 
 
-@pytest.fixture(autouse=True)
-def nothing_frozen():
-    """These tests start from a heap nobody froze: what tests/conftest.py froze goes back for each and is frozen
-    again after it."""
-    gc.unfreeze()
-    yield
-    gc.freeze()
-
-
 class Cycle:
     def __init__(self):
         self.me = self
