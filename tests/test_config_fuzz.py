@@ -191,7 +191,7 @@ def test_each_field_builds_and_steps_or_is_refused_by_name(task, fields, data):
 
 
 def test_the_pairs_cover_each_field_once():
-    covered = [(task, field.path) for case in CASES for task, fields in [case.values] for field in fields]
+    covered = [(case.values[0], field.path) for case in CASES for field in case.values[1]]
     assert len(covered) == len(set(covered)) and len(CASES) < len(covered) <= 2 * len(CASES)
     assert {path for _, path in covered} == {field.path for task in TASKS for field in FIELDS[task]}
 
