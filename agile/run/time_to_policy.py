@@ -36,7 +36,6 @@ from agile.run.arguments import command
 from agile.run import arguments, task_setup
 from agile.errors import AgileError
 from agile.run.time_to_policy_plots import CURVE_METRICS, outcome, plot
-from agile.run.train import TRAINERS
 
 FIRST_ITERATION_MARK = "Learning iteration"
 """What rsl-rl's log prints for every iteration (the training runs with --progress log)."""
@@ -61,15 +60,12 @@ class TimeToPolicyOptions:
     criteria: dict | None = None
     recipe: str | None = None
     overrides: tuple = ()
-    trainer: str = "rsl_rl"
 
 
 def training_command(options: TimeToPolicyOptions, log_root: str) -> list[str]:
     """The child process: `agile train` on one device, or torchrun over `gpus` GPUs."""
     train_args = ["--task", options.task, "--max_iterations", str(options.max_iterations), "--log_root", log_root,
                   "--progress", "log", f"agent.save_interval={options.save_interval}", *options.overrides]
-    if options.trainer != "rsl_rl":
-        train_args += ["--trainer", options.trainer]
     if options.num_envs is not None:
         train_args += ["--num_envs", str(options.num_envs)]
     if options.seed is not None:
@@ -93,12 +89,10 @@ def newest_checkpoint(log_root: str) -> tuple[int, Path] | None:
 
 
 def evaluator(task: str, overrides: list[str], device: str, num_envs: int | None = None,
-              episode_length_s: float | None = None, seed: int | None = None, trainer: str = "rsl_rl"):
+              episode_length_s: float | None = None, seed: int | None = None):
     """A function (checkpoint path -> eval.py's metrics) over one env in the task's evaluation setting (the catalogue's
     env count and episode length unless given, `overrides` as trained, pushes off), built once. With `seed`, every
-    evaluation starts from it: each checkpoint meets the same starts and commands. A run of another `trainer` than
-    rsl_rl is loaded with the task's PPO config (its actor is that config's): its agent.* overrides, which set that
-    trainer's settings, are left out."""
+    evaluation starts from it: each checkpoint meets the same starts and commands."""
     import torch
 
     import agile.tasks
@@ -111,8 +105,6 @@ def evaluator(task: str, overrides: list[str], device: str, num_envs: int | None
 
     settings = task_entry(task).eval_settings
     env_cfg, agent_cfg = agile.tasks.load_cfgs(task)
-    if trainer != "rsl_rl":
-        overrides = [item for item in overrides if not item.startswith("agent.")]
     apply_overrides({"env": env_cfg, "agent": agent_cfg}, [*overrides, *settings.get("overrides", [])])
     env_cfg.num_envs = num_envs or settings["num_envs"]
     env_cfg.episode_length_s = episode_length_s or settings["episode_length_s"]
@@ -176,7 +168,7 @@ class CheckpointJudge:
         if self.evaluate is None:
             options = self.options
             self.evaluate = evaluator(options.task, list(options.overrides), self.device, options.eval_num_envs,
-                                      options.eval_episode_length_s, trainer=options.trainer)
+                                      options.eval_episode_length_s)
         metrics = self.evaluate(path)
         missed = missed_criteria(metrics, self.criteria, self.minima)
         row = {"iteration": iteration, "wall_s": round(written_s, 1), "met": not missed, "missed": missed,
@@ -219,7 +211,6 @@ def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Pa
     return {"task": options.task, "seed": options.seed, "gpus": options.gpus, "num_envs_per_gpu": options.num_envs,
             "budget_s": options.budget_s,
             "recipe": options.recipe, "overrides": list(options.overrides),  # the recipe's first, then the given ones
-            "trainer": options.trainer,
             "evaluated": "after the training" if options.evaluate_after_training else f"beside it, on {judge.device}",
             "criteria": criteria, "minima": minima,
             "first_iteration_s": None if first_iteration_s is None else round(first_iteration_s, 1),
@@ -261,24 +252,12 @@ def check_count(value, field: str, minimum: int = 1) -> None:
         raise AgileError(f"{field} must be at least {minimum}, got {value}")
 
 
-def check_trainer(task: str, trainer: str, gpus: int) -> None:
-    """Refuse a trainer that cannot train the task (`agile.run.train.check_trainer`), or more than one GPU for a
-    trainer without a distributed run."""
-    from agile.run.train import TrainOptions
-    from agile.run.train import check_trainer as check_training
-
-    check_training(TrainOptions(task=task, trainer=trainer))
-    if trainer != "rsl_rl" and gpus > 1:
-        raise AgileError(f"gpus {gpus}: --trainer {trainer} trains on one device; give --gpus 1")
-
-
 def time_to_policy_options(*, task: str, budget_s: float, seed: int | None = None, seeds=None, gpus: int = 1,
                            num_envs: int | None = None, device: str | None = None, save_interval: int = 50,
                            max_iterations: int = 100_000, eval_num_envs: int | None = None,
                            eval_device: str | None = None, eval_episode_length_s: float | None = None,
                            evaluate_after_training: bool = False, criteria: dict | None = None,
-                           recipe: str | None = None, overrides=(),
-                           trainer: str = "rsl_rl") -> tuple[TimeToPolicyOptions, list]:
+                           recipe: str | None = None, overrides=()) -> tuple[TimeToPolicyOptions, list]:
     """The checked options of `time_to_policy` (see it) and the seeds to run, one after another (`[seed]` without
     `seeds`); raises AgileError naming the field for what it refuses, before anything runs."""
     from agile.run.recipes import RECIPES
@@ -297,7 +276,6 @@ def time_to_policy_options(*, task: str, budget_s: float, seed: int | None = Non
         raise AgileError("seeds must name at least one seed (or be None: one run)")
     if recipe is not None and recipe not in RECIPES:
         raise AgileError(f"recipe must be one of {', '.join(sorted(RECIPES))} (or None), got {recipe!r}")
-    check_trainer(task, trainer, gpus)
     for name, maximum in (criteria or {}).items():
         if not isinstance(maximum, (int, float)):
             raise AgileError(f"criteria: {{metric: maximum}}, a number each; {name} is {maximum!r}")
@@ -310,7 +288,7 @@ def time_to_policy_options(*, task: str, budget_s: float, seed: int | None = Non
         save_interval=save_interval, max_iterations=max_iterations, eval_num_envs=eval_num_envs,
         eval_device=eval_device, eval_episode_length_s=eval_episode_length_s,
         evaluate_after_training=evaluate_after_training, criteria=dict(criteria) if criteria else None,
-        recipe=recipe, overrides=(*RECIPES.get(recipe, ()), *overrides), trainer=trainer)
+        recipe=recipe, overrides=(*RECIPES.get(recipe, ()), *overrides))
     return options, list(seeds) if seeds is not None else [seed]
 
 
@@ -318,8 +296,7 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
                    num_envs: int | None = None, device: str | None = None, save_interval: int = 50,
                    max_iterations: int = 100_000, eval_num_envs: int | None = None, eval_device: str | None = None,
                    eval_episode_length_s: float | None = None, evaluate_after_training: bool = False,
-                   criteria: dict | None = None, recipe: str | None = None, overrides=(),
-                   trainer: str = "rsl_rl") -> dict:
+                   criteria: dict | None = None, recipe: str | None = None, overrides=()) -> dict:
     """Train `task` from scratch for `budget_s` seconds of wall time (a child process: `agile train`, or torchrun over
     `gpus` GPUs of this host, or CPU ranks with `device` "cpu"; `num_envs` per GPU, a checkpoint every `save_interval`
     iterations) and evaluate its checkpoints against `criteria` ({metric: maximum}; None: the task's, from
@@ -327,7 +304,6 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
     training's), or, with `evaluate_after_training`, in order once the budget is spent. `eval_num_envs`,
     `eval_episode_length_s`: the evaluation setting (default: the task's). `recipe` (agile.run.recipes): its
     overrides before `overrides`. `seeds`: one run per seed, one after another, instead of one with `seed`.
-    `trainer`: `agile train --trainer` (rsl_rl: PPO; fast_td3: FastTD3, one device).
 
     Writes <out>.json (the result), <out>.log (the training's output) and, with matplotlib, <out>.png (the curve);
     with `seeds`, <out>_seed<N>.json and .log per run and the summary over them in <out>.json. Returns what <out>.json
@@ -339,8 +315,7 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
         task=task, budget_s=budget_s, seed=seed, seeds=seeds, gpus=gpus, num_envs=num_envs, device=device,
         save_interval=save_interval, max_iterations=max_iterations, eval_num_envs=eval_num_envs,
         eval_device=eval_device, eval_episode_length_s=eval_episode_length_s,
-        evaluate_after_training=evaluate_after_training, criteria=criteria, recipe=recipe, overrides=overrides,
-        trainer=trainer)
+        evaluate_after_training=evaluate_after_training, criteria=criteria, recipe=recipe, overrides=overrides)
     task_setup.check_writable(f"{out}.json", "out")
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     commit = source_commit()
@@ -362,7 +337,6 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
     title = f"{task}: {outcome(results[0])}"
     if seeds is not None:
         written = {"task": task, "device": options.device, "commit": commit, "budget_s": budget_s, "gpus": gpus,
-                   "trainer": trainer,
                    "num_envs_per_gpu": num_envs, "recipe": recipe, "overrides": list(options.overrides),
                    **seed_summary(results), "runs": [f"{Path(out).name}_seed{r['seed']}.json" for r in results]}
         Path(f"{out}.json").write_text(json.dumps(written, indent=2))
@@ -412,8 +386,6 @@ def main(argv=None) -> int:
     parser.add_argument("--criterion", action="append", default=None, metavar="NAME=MAX",
                         help="a criterion instead of the task's (repeat for several), e.g. fall_rate=0.05")
     parser.add_argument("--out", required=True, help="write <out>.json and <out>.png (the curve)")
-    parser.add_argument("--trainer", choices=TRAINERS, default="rsl_rl",
-                        help="agile train's --trainer: rsl_rl (PPO) or fast_td3 (FastTD3, one GPU)")
     parser.add_argument("--verbose", action="store_true", help="show Warp's kernel loads and library warnings")
     parser.add_argument("overrides", nargs="*", help=arguments.OVERRIDE_HELP)
     arguments.add_recipe_arg(parser)
@@ -424,7 +396,7 @@ def main(argv=None) -> int:
         max_iterations=args.max_iterations, eval_num_envs=args.eval_num_envs, eval_device=args.eval_device,
         eval_episode_length_s=args.eval_episode_length_s, evaluate_after_training=args.evaluate_after_training,
         criteria=parse_criteria(args.criterion) if args.criterion else None, recipe=args.recipe,
-        overrides=arguments.given_overrides(args), trainer=args.trainer)
+        overrides=arguments.given_overrides(args))
     return 0 if criteria_met(result) else 1
 
 

@@ -10,7 +10,6 @@
         --init_policy agile/data/policy/Velocity-Height-G1-Student-History-v0.pt     # distil the shipped student on
     torchrun --standalone --nproc_per_node=2 scripts/train.py --task Velocity-T1-v0 --distributed   # 2 GPUs
     agile train --task MultiRate-G1-T1-Velocity-v0 --trainer happo   # HARL's HAPPO (pip install 'agile[harl]')
-    agile train --task Velocity-T1-v0 --trainer fast_td3             # FastTD3 (off-policy)
 
 Checkpoints, tensorboard logs and the resolved configs go to logs/rsl_rl/<experiment>/<time>_<run>/ (with
 --distributed: rank 0's; every rank runs --num_envs envs on cuda:LOCAL_RANK with seed + rank).
@@ -35,25 +34,9 @@ DEFAULT_LOG_ROOT = os.path.join("logs", "rsl_rl")
 PROGRESS_MODES = ("auto", "bar", "log")
 """`agile.rl.progress.PROGRESS_MODES`, named here so that --help does not import the simulator."""
 LOGGERS = ("tensorboard", "wandb", "neptune")
-TRAINERS = ("rsl_rl", "happo", "fast_td3")
+TRAINERS = ("rsl_rl", "happo")
 """rsl_rl: RSL-RL's PPO (per agent group on a multi-agent task); happo: HARL's HAPPO on a multi-agent task
-(`agile.marl.harl`, the extra agile[harl]); fast_td3: FastTD3 on a single-agent task (`agile.rl.fast_td3`)."""
-
-
-@dataclasses.dataclass(frozen=True)
-class TrainerNeeds:
-    """What a trainer other than rsl_rl needs: a multi-agent task or a single-agent one, and a package (its
-    import name and how to install it) where it comes from an extra."""
-    multi_agent: bool
-    package: str | None = None
-    install: str = ""
-
-
-TRAINER_NEEDS = {
-    "happo": TrainerNeeds(multi_agent=True, package="harl",
-                          install="HARL's HAPPO (the package harl-aht): pip install 'agile[harl]'"),
-    "fast_td3": TrainerNeeds(multi_agent=False),
-}
+(`agile.marl.harl`, the extra agile[harl])."""
 MANY_CPU_ENVS = 256
 """Above this env count a CPU training is told that it is slow and how to make it fast."""
 
@@ -248,17 +231,15 @@ def check_trainer(options: TrainOptions) -> None:
         raise AgileError(f"--trainer must be one of {', '.join(TRAINERS)}, got {trainer!r}")
     if trainer == "rsl_rl":
         return
-    needs, kind = TRAINER_NEEDS[trainer], agile.tasks.task_kind(options.task)
-    if needs.multi_agent != (kind == "multi_agent"):
-        raise AgileError(f"--trainer {trainer}: needs a {'multi-agent' if needs.multi_agent else 'single-agent'} "
-                         f"task; {options.task} is {kind}")
+    kind = agile.tasks.task_kind(options.task)
+    if kind != "multi_agent":
+        raise AgileError(f"--trainer {trainer}: needs a multi-agent task; {options.task} is {kind}")
     trainers = agile.tasks.task_spec(options.task).trainer_cfgs
     if trainer not in trainers:
-        with_config = [t for t in agile.tasks.registered_tasks() if trainer in agile.tasks.task_spec(t).trainer_cfgs]
         raise AgileError(f"--trainer {trainer}: {options.task} has no {trainer} config (it trains with: "
-                         f"{', '.join(['rsl_rl', *trainers])}; the tasks with one: {', '.join(with_config)})")
-    if needs.package is not None and importlib.util.find_spec(needs.package) is None:
-        raise AgileError(f"--trainer {trainer} needs {needs.install}")
+                         f"{', '.join(['rsl_rl', *trainers])})")
+    if importlib.util.find_spec("harl") is None:
+        raise AgileError(f"--trainer {trainer} needs HARL's HAPPO (the package harl-aht): pip install 'agile[harl]'")
     given = [f"--{name}" for name in ("resume", "checkpoint", "init_policy", "init_action_std", "rnn", "video",
                                       "teacher", "distributed", "inject_nan_actions") if getattr(options, name)]
     if given:
@@ -332,11 +313,7 @@ def save_interrupted(runner, log_dir: str | None) -> str | None:
 
 
 def train_single_agent(options: TrainOptions, rank) -> TrainResult:
-    """`train` for every kind but multi-agent (`agile.run.task_kinds`); FastTD3 where `options.trainer` says so."""
-    if options.trainer == "fast_td3":
-        from agile.run import fast_td3
-
-        return fast_td3.train(options)
+    """`train` for every kind but multi-agent (`agile.run.task_kinds`)."""
     env_cfg, agent_cfg, device = run_configs(options, rank)
     start = starting_point(options, agent_cfg)
     if start["resume_contents"] is not None:
@@ -416,9 +393,7 @@ def build_parser():
                         "CPU processes): each rank its own --num_envs envs and seed + rank, logs on rank 0")
     parser.add_argument("--trainer", choices=TRAINERS, default="rsl_rl",
                         help="rsl_rl: RSL-RL's PPO (a multi-agent task: per agent group); happo: HARL's HAPPO on a "
-                        "multi-agent task, one actor per agent and a centralised critic (pip install 'agile[harl]'); "
-                        "fast_td3: FastTD3 (off-policy, a replay buffer on the device) on a single-agent task with a "
-                        "fast_td3 config (its error names them)")
+                        "multi-agent task, one actor per agent and a centralised critic (pip install 'agile[harl]')")
     arguments.add_checkpoint_args(parser)
     return parser
 

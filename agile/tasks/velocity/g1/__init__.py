@@ -1,7 +1,6 @@
 from agile.tasks.registration import register_task
 
 register_task("Velocity-G1-History-v0", f"{__name__}.velocity_history_env_cfg:G1VelocityHistoryEnvCfg",
-              f"{__name__}.agents.rsl_rl_cfg:g1_velocity_history_ppo_runner_cfg",
-              trainer_cfgs={"fast_td3": f"{__name__}.agents.fast_td3_cfg:g1_velocity_history_fast_td3_cfg"})
+              f"{__name__}.agents.rsl_rl_cfg:g1_velocity_history_ppo_runner_cfg")
 register_task("Velocity-G1-Teacher-v0", f"{__name__}.velocity_teacher_env_cfg:G1VelocityTeacherEnvCfg",
               f"{__name__}.agents.rsl_rl_cfg:g1_velocity_teacher_ppo_runner_cfg")

@@ -1,5 +1,4 @@
 from agile.tasks.registration import register_task
 
 register_task("Velocity-T1-v0", f"{__name__}.velocity_env_cfg:T1VelocityEnvCfg",
-              f"{__name__}.agents.rsl_rl_cfg:t1_velocity_ppo_runner_cfg",
-              trainer_cfgs={"fast_td3": f"{__name__}.agents.fast_td3_cfg:t1_velocity_fast_td3_cfg"})
+              f"{__name__}.agents.rsl_rl_cfg:t1_velocity_ppo_runner_cfg")
