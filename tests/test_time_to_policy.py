@@ -104,3 +104,10 @@ def test_the_curve_title_says_whether_the_criteria_were_met():
     assert outcome(missed) == "criteria not met within 420 s"
     assert outcome({**missed, "time_to_policy_s": 287.4, "iteration_at_criteria": 650}) == \
         "time to policy 287 s (iteration 650)"
+
+
+def test_a_run_without_a_seed_is_named_by_the_tasks_seed_not_none():
+    """The legend and the summary line of a run given no seed said "seed None"."""
+    from agile.run.time_to_policy_plots import seed_name
+
+    assert seed_name(None) == "the task's seed" and seed_name(0) == "seed 0" and seed_name(7) == "seed 7"

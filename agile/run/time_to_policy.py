@@ -35,7 +35,7 @@ from pathlib import Path
 from agile.run.arguments import command
 from agile.run import arguments, task_setup
 from agile.errors import AgileError
-from agile.run.time_to_policy_plots import CURVE_METRICS, outcome, plot
+from agile.run.time_to_policy_plots import CURVE_METRICS, outcome, plot, seed_name
 
 FIRST_ITERATION_MARK = "Learning iteration"
 """What rsl-rl's log prints for every iteration (the training runs with --progress log)."""
@@ -328,7 +328,7 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
         result.update(device=options.device, commit=commit)
         Path(f"{run_out}.json").write_text(json.dumps(result, indent=2))
         met = result["time_to_policy_s"]
-        print(f"[agile] {task}, seed {run_seed}: " + (
+        print(f"[agile] {task}, {seed_name(run_seed)}: " + (
             f"criteria met at {met} s (iteration {result['iteration_at_criteria']})" if met is not None
             else f"criteria not met within {budget_s:g} s") + f"; first iteration at "
               f"{result['first_iteration_s']} s; {run_out}.json", flush=True)

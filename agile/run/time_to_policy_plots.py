@@ -7,6 +7,11 @@ CURVE_METRICS = ("fall_rate", "lin_vel_error_mps", "ang_vel_error_radps", "base_
 """The metrics each evaluation row keeps and the curve draws, those the task measures."""
 
 
+def seed_name(seed: int | None) -> str:
+    """A run's seed in words: "seed 3", or "the task's seed" for a run given none."""
+    return "the task's seed" if seed is None else f"seed {seed}"
+
+
 def outcome(result: dict) -> str:
     """The run's verdict in words, for the plot's title."""
     if result["time_to_policy_s"] is None:
@@ -30,7 +35,7 @@ def plot(results: list[dict], path: str, title: str) -> bool:
         for result in results:
             rows = [r for r in result["evaluations"] if metric in r]
             line, = ax.plot([r["wall_s"] for r in rows], [r[metric] for r in rows], marker="o", ms=3,
-                            label=f"seed {result['seed']}: {outcome(result)}")
+                            label=f"{seed_name(result['seed'])}: {outcome(result)}")
             if result["first_iteration_s"] is not None:
                 ax.axvline(result["first_iteration_s"], color=line.get_color(), ls=":")
         if metric in results[0]["criteria"]:
