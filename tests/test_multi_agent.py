@@ -291,3 +291,68 @@ def test_each_go1_sees_the_other_in_its_own_heading_frame():
         assert term_dims["policy"]["other_robot"] == 4 * 5 and term_dims["critic"]["other_robot"] == 4  # 5-step history
     finally:
         world.close()
+
+
+def test_multi_agent_evaluation_names_the_term_that_ended_each_fall():
+    """Shared-Go1 with go1_a's tilt limit at 0 rad: go1_a falls at once by bad_orientation, and go1_b's falls are
+    counted apart (soft death: each agent's own terms). The evaluation reports the falls by term, as the
+    single-agent one does."""
+    import dataclasses
+    import math
+
+    from agile.run.multi_agent import evaluate, evaluation_cfg
+
+    env_cfg, _ = agile.tasks.load_cfgs("Shared-Go1-Velocity-v0")
+    env_cfg.agents["go1_a"].terminations = dataclasses.replace(
+        env_cfg.agents["go1_a"].terminations, bad_orientation=dataclasses.replace(
+            env_cfg.agents["go1_a"].terminations.bad_orientation, params={"limit_angle_rad": 0.0}))
+    env_cfg.num_envs = 2
+    world = gym.make("Shared-Go1-Velocity-v0", cfg=evaluation_cfg(env_cfg, pushes=False), device="cpu").unwrapped
+    try:
+        view = GroupVecEnv(world, "go1", AgentGroupCfg(agents=list(ROBOTS), mode="shared"))
+        standing = {view: lambda obs: torch.zeros(obs["policy"].shape[0], view.num_actions)}
+        metrics = evaluate(world, standing, num_slots=3)
+    finally:
+        world.close()
+    a, b = metrics["go1_a"], metrics["go1_b"]
+    # go1_a falls at the first step in both envs and stays down while go1_b plays on: one fall per env
+    assert a["falls"] == 2 and a["falls_by_term"]["bad_orientation"] == 2
+    assert "time_out" not in a["falls_by_term"] and set(a["falls_by_term"]) == set(b["falls_by_term"])
+    assert b["falls"] == 0 and not any(b["falls_by_term"].values())
+    assert math.isfinite(a["lin_vel_error_mps"])
+
+
+def test_a_go1_whose_trunk_touches_the_other_plays_on_and_one_on_its_back_falls():
+    """Shared-Go1's trunk-contact termination reads the ground's force alone: in env 0 go1_b's trunk pushes on go1_a's
+    (thousands of N) and neither falls by trunk contact; in env 1 go1_a lies on its back, trunk on the ground, and
+    falls by it."""
+    world = gym.make("Shared-Go1-Velocity-v0", num_envs=2, device="cpu", seed=0).unwrapped
+    try:
+        world.reset()
+        go1_a, go1_b = world.scene["go1_a"], world.scene["go1_b"]
+        height_m = float(go1_a.root_pose_w[0, 2])
+        upright, on_its_back = [0.0, 0.0, 0.0, 1.0], [1.0, 0.0, 0.0, 0.0]
+
+        def place(robot, x_m: list[float], z_m: list[float], quat_xyzw: list[list[float]]) -> None:
+            pose = robot.root_pose_w.clone()
+            pose[:, :2] = world.env_origins[:, :2]
+            pose[:, 0] += torch.tensor(x_m)
+            pose[:, 2] = torch.tensor(z_m)
+            pose[:, 3:7] = torch.tensor(quat_xyzw)
+            robot.write_root_state(pose, torch.zeros_like(robot.root_com_vel_w), torch.tensor([True, True]))
+
+        place(go1_a, [0.0, 0.0], [height_m, 0.04], [upright, on_its_back])
+        place(go1_b, [0.36, 3.0], [height_m, height_m], [upright, upright])  # trunks 0.38 m long: they overlap
+        world.sim.forward()
+        world.scene.update()
+        world.step({name: torch.zeros(2, world.agents[name].action_manager.total_action_dim)
+                    for name in world.acting_agents})
+        touching_n = world.scene["go1_a_touches_go1_b"].force_matrix_w.norm(dim=-1).sum(dim=(1, 2))
+        assert touching_n[0] > 1000.0 and touching_n[1] == 0.0
+        trunk_net_n = world.scene["go1_a_contact_forces"].net_forces_w_history.norm(dim=-1).amax(dim=1)[:, 0]
+        assert trunk_net_n[0] > 20.0  # the net force would have ended the episode
+        trunk_contact = {name: world.agents[name].termination_manager.term_dones["illegal_ground_contact"].tolist()
+                         for name in ROBOTS}
+        assert trunk_contact == {"go1_a": [False, True], "go1_b": [False, False]}
+    finally:
+        world.close()

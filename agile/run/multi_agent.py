@@ -167,14 +167,17 @@ def acting_actions(world, policies: dict) -> dict:
 
 
 def evaluate(world, policies: dict, num_slots: int, recorders=(), command_name: str = "base_velocity") -> dict:
-    """Per agent: falls (its termination fired), velocity tracking error while alive, reward terms, over
-    `num_slots` steps of the world from a reset. `policies[view]` maps a group's observations to its actions."""
+    """Per agent: falls (its termination fired) and which failure term ended them (`falls_by_term`: an episode two
+    terms ended counts for both, as in single-agent evaluation), velocity tracking error while alive, reward terms,
+    over `num_slots` steps of the world from a reset. `policies[view]` maps a group's observations to its actions."""
     import torch
 
     world.reset()
     stats = {name: {"falls": torch.zeros((), device=world.device), "lin": torch.zeros((), device=world.device),
                     "ang": torch.zeros((), device=world.device), "alive_steps": torch.zeros((), device=world.device),
-                    "steps": 0, "terms": {t: torch.zeros((), device=world.device) for t in a.reward_manager.weights}}
+                    "steps": 0, "terms": {t: torch.zeros((), device=world.device) for t in a.reward_manager.weights},
+                    "ended_by": {t: torch.zeros((), device=world.device)
+                                 for t, cfg in a.termination_manager.term_cfgs.items() if not cfg.time_out}}
              for name, a in world.agents.items()}
     commands = {}  # each agent's command over its current period
     with torch.inference_mode():
@@ -192,7 +195,10 @@ def evaluate(world, policies: dict, num_slots: int, recorders=(), command_name: 
                 s["lin"] += (torch.linalg.norm(command[:, :2] - robot.root_lin_vel_b[:, :2], dim=1) * playing).sum()
                 s["ang"] += ((command[:, 2] - robot.root_ang_vel_b[:, 2]).abs() * playing).sum()
                 s["alive_steps"] += playing.sum()
-                s["falls"] += (step.terminated & step.alive).sum()
+                fell = step.terminated & step.alive
+                s["falls"] += fell.sum()
+                for t in s["ended_by"]:  # the terms' values of this agent's step, kept through its resets
+                    s["ended_by"][t] += (agent.termination_manager.term_dones[t] & fell).sum()
                 s["steps"] += 1
                 for t in s["terms"]:
                     s["terms"][t] += (agent.reward_manager.step_reward[t] * step.alive).sum()
@@ -201,6 +207,7 @@ def evaluate(world, policies: dict, num_slots: int, recorders=(), command_name: 
         alive_steps = max(float(s["alive_steps"]), 1.0)
         result[name] = {
             "control_hz": round(1.0 / world.agents[name].step_dt, 3), "falls": int(s["falls"]),
+            "falls_by_term": {t: int(v) for t, v in s["ended_by"].items()},
             "lin_vel_error_mps": float(s["lin"]) / alive_steps, "ang_vel_error_radps": float(s["ang"]) / alive_steps,
             "reward_per_step": {t: float(v) / (world.num_envs * s["steps"]) for t, v in s["terms"].items()}}
     return result
@@ -270,8 +277,9 @@ def run_world(*, task: str, checkpoint: str | None, num_envs: int | None = None,
 
 def print_agents(metrics: dict) -> None:
     for name, m in metrics["agents"].items():
-        print(f"[agile] {name} at {m['control_hz']:g} Hz: falls {m['falls']}, linear tracking error "
-              f"{m['lin_vel_error_mps']:.3f} m/s")
+        by_term = ", ".join(f"{term} {count}" for term, count in m.get("falls_by_term", {}).items() if count)
+        print(f"[agile] {name} at {m['control_hz']:g} Hz: falls {m['falls']}" + (f" ({by_term})" if by_term else "")
+              + f", linear tracking error {m['lin_vel_error_mps']:.3f} m/s")
 
 
 def world_options(options) -> dict:

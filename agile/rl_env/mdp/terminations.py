@@ -36,9 +36,17 @@ def root_height_below_minimum(env, minimum_height_m: float, asset_cfg: SceneEnti
 def illegal_ground_contact(env, force_threshold_n: float, min_height_m: float, sensor_cfg: SceneEntityCfg,
                            asset_cfg: SceneEntityCfg) -> torch.Tensor:
     """A selected sensor body had a recent contact force above the threshold [N] while the lowest of the
-    selected robot bodies is below min_height_m (world z): a fall, not a brush against an edge at full height."""
-    history = env.scene[sensor_cfg.name].net_forces_w_history[:, :, sensor_cfg.body_ids]
-    in_contact = (torch.norm(history, dim=-1).amax(dim=1) > force_threshold_n).any(dim=1)
+    selected robot bodies is below min_height_m (world z): a fall, not a brush against an edge at full height.
+    The force is the net one over the sensor's history, or, for a sensor with a filter entity, the filter's alone at
+    the last physics step ('ground': the terrain's, so that in a scene of several robots a touch of another robot
+    is not a fall)."""
+    sensor = env.scene[sensor_cfg.name]
+    if sensor.force_matrix_w is None:
+        history = sensor.net_forces_w_history[:, :, sensor_cfg.body_ids]
+        in_contact = (torch.norm(history, dim=-1).amax(dim=1) > force_threshold_n).any(dim=1)
+    else:
+        force_n = torch.norm(sensor.force_matrix_w[:, sensor_cfg.body_ids].sum(dim=2), dim=-1)
+        in_contact = (force_n > force_threshold_n).any(dim=1)
     lowest_m = env.scene[asset_cfg.name].body_pose_w[:, asset_cfg.body_ids, 2].amin(dim=1)
     return in_contact & (lowest_m < min_height_m)
 
