@@ -7,8 +7,8 @@ term for term, written for "robot" and mapped onto its Go1 by `scene_names`; add
 planar position and velocity in this one's heading frame, to the policy and the critic: a robot blind to the other
 could not keep clear of it), the penalty for coming within 0.8 m of it and the one for touching it; and the trunk
 contact that ends an episode is the ground's alone (a touch of the other robot is penalised, not a fall). Resets stay
-within ±0.3 m of the spawn points, so the robots never start inside each other. The single task's curriculum (the action-rate weights' ramps) does not run here: the
-agents keep its initial weights.
+within ±0.3 m of the spawn points, so the robots never start inside each other. The single task's curriculum (the
+action-rate weights' ramps) does not run here: the agents keep its initial weights.
 """
 
 from __future__ import annotations
