@@ -147,6 +147,7 @@ class FakeContactSensor:
         self.current_air_time_s = torch.zeros(num_envs, self.num_bodies)
         self.current_contact_time_s = torch.zeros(num_envs, self.num_bodies)
         self.last_air_time_s = torch.zeros(num_envs, self.num_bodies)
+        self.force_matrix_w = None  # no filter entity: net forces only, as a ContactSensor without one
 
     @property
     def net_forces_w(self):
