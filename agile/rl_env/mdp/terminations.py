@@ -8,7 +8,7 @@ import torch
 
 from agile.rl_env.managers import ManagerTermBase, ROBOT, SceneEntityCfg
 from agile.rl_env.mdp.observations import base_height_above_ground
-from agile.rl_env.mdp.rewards import body_projected_gravity
+from agile.rl_env.mdp.rewards import body_projected_gravity, filtered_contact
 
 __all__ = ["bad_orientation", "illegal_ground_contact", "link_distance", "no_height_progress", "out_of_bound",
            "root_height_below_minimum", "time_out"]
@@ -45,8 +45,7 @@ def illegal_ground_contact(env, force_threshold_n: float, min_height_m: float, s
         history = sensor.net_forces_w_history[:, :, sensor_cfg.body_ids]
         in_contact = (torch.norm(history, dim=-1).amax(dim=1) > force_threshold_n).any(dim=1)
     else:
-        force_n = torch.norm(sensor.force_matrix_w[:, sensor_cfg.body_ids].sum(dim=2), dim=-1)
-        in_contact = (force_n > force_threshold_n).any(dim=1)
+        in_contact = filtered_contact(env, sensor_cfg, force_threshold_n).bool()
     lowest_m = env.scene[asset_cfg.name].body_pose_w[:, asset_cfg.body_ids, 2].amin(dim=1)
     return in_contact & (lowest_m < min_height_m)
 
