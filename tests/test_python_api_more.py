@@ -4,6 +4,7 @@ and the stand-up family's startup dataset; refused input raised as AgileError (n
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import shutil
@@ -40,7 +41,8 @@ def test_time_to_policy_refuses_bad_options_naming_the_field_before_anything_run
 
 def test_time_to_policy_resolves_its_criteria_recipe_and_training_command():
     from agile.run.recipes import RECIPES
-    from agile.run.time_to_policy import criteria_of, parse_criteria, time_to_policy_options, training_command
+    from agile.run.time_to_policy import time_to_policy_options, training_command
+    from agile.run.time_to_policy_judge import criteria_of, parse_criteria
     from agile.tasks.catalogue import task_entry
 
     options, seeds = time_to_policy_options(task=TASK, budget_s=5.0, device="cpu", recipe="fast", seeds=[3, 4],
@@ -48,9 +50,9 @@ def test_time_to_policy_resolves_its_criteria_recipe_and_training_command():
     assert seeds == [3, 4] and options.seed is None and options.device == "cpu"
     assert options.overrides == (*RECIPES["fast"], "agent.num_steps_per_env=4")  # the recipe's first
     entry = task_entry(TASK)
-    assert criteria_of(options) == (dict(entry.criteria), dict(entry.minima)) and entry.criteria  # the task's
-    given, _ = time_to_policy_options(task=TASK, budget_s=5.0, device="cpu", criteria={"fall_rate": 0.5})
-    assert criteria_of(given) == ({"fall_rate": 0.5}, {})  # given maxima replace the task's, minima too
+    assert criteria_of(TASK, options.target, options.criteria) == (dict(entry.criteria), dict(entry.minima))
+    assert entry.criteria  # the task's
+    assert criteria_of(TASK, "criteria", {"fall_rate": 0.5}) == ({"fall_rate": 0.5}, {})  # given maxima, no minima
     assert parse_criteria(["fall_rate=0.5", "lin_vel_error_mps=0.2"]) == {"fall_rate": 0.5, "lin_vel_error_mps": 0.2}
     with pytest.raises(AgileError, match="--criterion takes NAME=MAXIMUM, e.g. fall_rate=0.05; got 'fall_rate'"):
         parse_criteria(["fall_rate"])
@@ -63,6 +65,8 @@ def test_time_to_policy_resolves_its_criteria_recipe_and_training_command():
     command = training_command(ranks, "/tmp/runs")
     assert "--nproc_per_node=2" in command and command[-3:] == ["--distributed", "--device", "cpu"]
     assert command[command.index("--seed") + 1] == "7"
+    resumed = dataclasses.replace(options, resume="run/model_50.pt")
+    assert training_command(resumed, "/tmp/runs")[-4:-2] == ["--checkpoint", "run/model_50.pt"]
 
 
 def test_the_command_line_overrides_without_the_recipes():

@@ -5,6 +5,7 @@ import json
 import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -128,10 +129,18 @@ def test_train_writes_checkpoint_logs_and_configs_then_resumes(trained_run):
 
     import torch
 
-    env_state = torch.load(run_dir / "model_1.pt", weights_only=True)["infos"]["env_state"]
+    checkpoint = torch.load(run_dir / "model_1.pt", weights_only=True)
+    env_state = checkpoint["infos"]["env_state"]
     assert int(env_state["common_step_counter"]) == 2 * 4  # 2 iterations of 4 steps: what the weight ramps read
     assert env_state["terrain_levels"].shape == (2,)
+    # the training's wall time since its start, the env build included; a resume counts on from the checkpoint's:
+    # set far beyond what the runs take, the resumed run's checkpoints hold it plus the resumed run's own time
+    assert 0 < checkpoint["infos"]["wall_s"] < 600
+    checkpoint["infos"]["wall_s"] = 1e6
+    torch.save(checkpoint, run_dir / "model_1.pt")
+    started = time.time()
     code, out = run(*args[:-1], "--resume", "agent.num_steps_per_env=4")
+    resumed_run_s = time.time() - started
     assert code == 0 and "resuming from" in out, out
     resumed = int(re.search(r"resuming from \S*model_(\d+)\.pt", out).group(1))
     assert f"continuing at iteration {resumed + 1}" in out and f"Learning iteration {resumed + 1}/" in out, out
@@ -142,6 +151,7 @@ def test_train_writes_checkpoint_logs_and_configs_then_resumes(trained_run):
     last = torch.load(resumed_run / f"model_{resumed + 2}.pt", weights_only=True)
     assert last["iter"] == resumed + 2
     assert int(last["infos"]["env_state"]["common_step_counter"]) == (resumed + 1 + 2) * 4
+    assert resumed == 1 and 1e6 < last["infos"]["wall_s"] <= 1e6 + resumed_run_s
 
 
 def test_resuming_into_another_env_is_one_line_naming_the_checkpoint(trained_run):

@@ -82,7 +82,7 @@ def pick_checkpoint(*, task: str, run_dir: str, every: int = 100, device: str | 
     if not checkpoints:
         raise AgileError(f"--run {run_dir}: no model_<iteration>.pt in it")
 
-    from agile.run.time_to_policy import evaluator
+    from agile.run.time_to_policy_judge import evaluator
     from agile.tasks.catalogue import task_entry
     from agile.utils.config import ConfigError
 

@@ -3,6 +3,10 @@ task's criteria (agile/tasks/catalogue.py), with the curve of its evaluations ag
 
     agile time_to_policy --task Velocity-G1-History-v0 --budget_s 600 --out g1_h100
     agile time_to_policy --task Velocity-T1-v0 --budget_s 300 --gpus 4 --out t1_4gpu    # torchrun, ranks on GPUs 0-3
+    agile time_to_policy --task Velocity-T1-v0 --target shippable --budget_s 1500 --evaluate_after_training \
+        --log_root t1_runs --out t1_ship                                          # its ship bar; the run kept
+    agile time_to_policy --task Velocity-T1-v0 --target shippable --budget_s 1500 --evaluate_after_training \
+        --resume t1_runs/<experiment>/<run>/model_4000.pt --out t1_ship_2        # on from there, its time counted in
 
 The training runs as a child process (`agile train`, or torchrun over --gpus GPUs with --distributed) and saves a
 checkpoint every --save_interval iterations; this process evaluates the newest checkpoint on the training's first
@@ -15,12 +19,16 @@ Evaluating beside the training on its GPU slows it (two processes take turns on 
 against 0.52 s alone, G1 on an H100). `--eval_device cuda:N` evaluates on another GPU of the host;
 `--evaluate_after_training` trains for the whole budget undisturbed, then evaluates the checkpoints in order: the
 time to policy is then when the first one that meets the criteria was written, as a training without evaluations
-would have reached it. From Python: `time_to_policy(task=..., budget_s=..., out=..., ...)` returns what <out>.json
+would have reached it. `--target shippable` judges by the task's ship bar instead (`ship_bar` of its registration:
+the training's mean terrain level, read from the checkpoint, then the falls on the start rows, then over every row);
+a training that outlasts one budget continues with `--resume` from the newest checkpoint of a run kept with
+`--log_root`, its wall time counted on from the time the checkpoint records. From Python: `time_to_policy(task=..., budget_s=..., out=..., ...)` returns what <out>.json
 holds.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import os
@@ -35,7 +43,8 @@ from pathlib import Path
 from agile.run.arguments import command
 from agile.run import arguments, task_setup
 from agile.errors import AgileError
-from agile.run.time_to_policy_plots import CURVE_METRICS, outcome, plot, seed_name
+from agile.run.time_to_policy_judge import TARGETS, CheckpointJudge, check_target, criteria_of, parse_criteria
+from agile.run.time_to_policy_plots import outcome, plot, seed_name
 
 FIRST_ITERATION_MARK = "Learning iteration"
 """What rsl-rl's log prints for every iteration (the training runs with --progress log)."""
@@ -58,6 +67,8 @@ class TimeToPolicyOptions:
     eval_episode_length_s: float | None = None
     evaluate_after_training: bool = False
     criteria: dict | None = None
+    target: str = "criteria"
+    resume: str | None = None
     recipe: str | None = None
     overrides: tuple = ()
 
@@ -70,6 +81,8 @@ def training_command(options: TimeToPolicyOptions, log_root: str) -> list[str]:
         train_args += ["--num_envs", str(options.num_envs)]
     if options.seed is not None:
         train_args += ["--seed", str(options.seed)]
+    if options.resume is not None:
+        train_args += ["--resume", "--checkpoint", options.resume]
     if options.gpus > 1:  # ranks on the host's first GPUs, or on the CPU (gloo) where the run is on the CPU
         cpu_ranks = ["--device", "cpu"] if options.device == "cpu" else []
         return [sys.executable, "-m", "torch.distributed.run", "--standalone", f"--nproc_per_node={options.gpus}",
@@ -88,61 +101,6 @@ def newest_checkpoint(log_root: str) -> tuple[int, Path] | None:
     return found[-1] if found else None
 
 
-def evaluator(task: str, overrides: list[str], device: str, num_envs: int | None = None,
-              episode_length_s: float | None = None, seed: int | None = None):
-    """A function (checkpoint path -> eval.py's metrics) over one env in the task's evaluation setting (the catalogue's
-    env count and episode length unless given, `overrides` as trained, pushes off), built once. With `seed`, every
-    evaluation starts from it: each checkpoint meets the same starts and commands."""
-    import torch
-
-    import agile.tasks
-    from agile.rl.checkpoints import load_checkpoint
-    from agile.run.rollout_metrics import evaluate
-    from agile.run.eval_all import disable_interval_events
-    from agile.run.policy import inference_cfg, load_policy
-    from agile.tasks.catalogue import task_entry
-    from agile.utils.config import apply_overrides
-
-    settings = task_entry(task).eval_settings
-    env_cfg, agent_cfg = agile.tasks.load_cfgs(task)
-    apply_overrides({"env": env_cfg, "agent": agent_cfg}, [*overrides, *settings.get("overrides", [])])
-    env_cfg.num_envs = num_envs or settings["num_envs"]
-    env_cfg.episode_length_s = episode_length_s or settings["episode_length_s"]
-    env_cfg = inference_cfg(env_cfg)
-    disable_interval_events(env_cfg)
-    env = task_setup.make_env(task=task, env_cfg=env_cfg, device=device)
-
-    def run(path: Path) -> dict:
-        policy = load_policy(load_checkpoint(str(path)), env, agent_cfg)
-        if seed is not None:
-            torch.manual_seed(seed)
-        return evaluate(env, policy, settings["num_episodes"])
-
-    return run
-
-
-def parse_criteria(specs: list[str]) -> dict[str, float]:
-    """{name: maximum} of the command line's --criterion NAME=MAX."""
-    criteria = {}
-    for spec in specs:
-        name, _, value = spec.partition("=")
-        try:
-            criteria[name] = float(value)
-        except ValueError:
-            raise AgileError(f"--criterion takes NAME=MAXIMUM, e.g. fall_rate=0.05; got '{spec}'")
-    return criteria
-
-
-def criteria_of(options: TimeToPolicyOptions) -> tuple[dict, dict]:
-    """(maxima, minima): the task's criteria from the catalogue, or the maxima `criteria` gives (no minima then)."""
-    from agile.tasks.catalogue import task_entry
-
-    if not options.criteria:
-        entry = task_entry(options.task)
-        return dict(entry.criteria), dict(entry.minima)
-    return dict(options.criteria), {}
-
-
 def wait_for_first_iteration(log_path: Path, process, start: float, budget_s: float) -> float | None:
     """Seconds from the start to the training's first logged iteration (None: it ended or the budget ran out)."""
     while time.monotonic() - start < budget_s and process.poll() is None:
@@ -152,46 +110,18 @@ def wait_for_first_iteration(log_path: Path, process, start: float, budget_s: fl
     return None
 
 
-class CheckpointJudge:
-    """Evaluates checkpoints against the criteria (the evaluation env built at the first) and keeps the rows."""
-
-    def __init__(self, options: TimeToPolicyOptions, criteria: dict, minima: dict, device: str, start_epoch: float):
-        self.options, self.criteria, self.minima, self.device = options, criteria, minima, device
-        self.start_epoch = start_epoch
-        self.evaluate = None
-        self.rows: list[dict] = []
-
-    def __call__(self, iteration: int, path: Path) -> dict:
-        from agile.tasks.catalogue import missed_criteria
-
-        written_s = path.stat().st_mtime - self.start_epoch  # when the training wrote it
-        if self.evaluate is None:
-            options = self.options
-            self.evaluate = evaluator(options.task, list(options.overrides), self.device, options.eval_num_envs,
-                                      options.eval_episode_length_s)
-        metrics = self.evaluate(path)
-        missed = missed_criteria(metrics, self.criteria, self.minima)
-        row = {"iteration": iteration, "wall_s": round(written_s, 1), "met": not missed, "missed": missed,
-               **{k: metrics[k] for k in CURVE_METRICS if k in metrics}, "episodes": metrics.get("episodes")}
-        if metrics.get("error_by_command"):  # which commands a missed error comes from (yaw rate by turn rate, ...)
-            row["error_by_command"] = metrics["error_by_command"]
-        self.rows.append(row)
-        print(f"[agile] {row['wall_s']:7.1f} s, iteration {iteration}: "
-              + ", ".join(f"{k} {row[k]:.3f}" for k in CURVE_METRICS if k in row)
-              + (" -> criteria met" if not missed else ""), flush=True)
-        return row
-
-
 def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Path) -> dict:
     """Train in a child process (its output in `log_path`, its run under `log_root`) until a checkpoint meets the
     criteria or the budget is spent; the run's result (what <out>.json holds, less the device and commit)."""
-    criteria, minima = criteria_of(options)
+    criteria, minima = criteria_of(options.task, options.target, options.criteria)
+    wall_s_before = 0.0 if options.resume is None else recorded_wall_s(options.resume)
     start, start_epoch = time.monotonic(), time.time()
     with open(log_path, "w") as log:
         process = subprocess.Popen(training_command(options, log_root), stdout=log, stderr=subprocess.STDOUT,
                                    start_new_session=True)
     first_iteration_s = wait_for_first_iteration(log_path, process, start, options.budget_s)
-    judge = CheckpointJudge(options, criteria, minima, options.eval_device or options.device, start_epoch)
+    judge = CheckpointJudge(options, criteria, minima, options.eval_device or options.device, start_epoch,
+                            wall_s_before)
     met_at = None
     try:
         if options.evaluate_after_training:
@@ -212,10 +142,22 @@ def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Pa
             "budget_s": options.budget_s,
             "recipe": options.recipe, "overrides": list(options.overrides),  # the recipe's first, then the given ones
             "evaluated": "after the training" if options.evaluate_after_training else f"beside it, on {judge.device}",
-            "criteria": criteria, "minima": minima,
+            "target": options.target, "criteria": criteria, "minima": minima,
+            "resumed_from": options.resume, "wall_s_before": wall_s_before,
             "first_iteration_s": None if first_iteration_s is None else round(first_iteration_s, 1),
             "time_to_policy_s": met_at["wall_s"] if met_at else None,
             "iteration_at_criteria": met_at["iteration"] if met_at else None, "evaluations": judge.rows}
+
+
+def recorded_wall_s(checkpoint: str) -> float:
+    """The training wall time a checkpoint records (`infos["wall_s"]`); AgileError where it records none."""
+    from agile.rl.checkpoints import load_checkpoint
+
+    wall_s = (load_checkpoint(checkpoint).get("infos") or {}).get("wall_s")
+    if wall_s is None:
+        raise AgileError(f"resume: {checkpoint} records no training wall time (infos['wall_s']; an older "
+                         f"agile train wrote none): the time to policy cannot count on from it")
+    return float(wall_s)
 
 
 def judge_as_they_come(options: TimeToPolicyOptions, judge: CheckpointJudge, process, start: float,
@@ -257,7 +199,8 @@ def time_to_policy_options(*, task: str, budget_s: float, seed: int | None = Non
                            max_iterations: int = 100_000, eval_num_envs: int | None = None,
                            eval_device: str | None = None, eval_episode_length_s: float | None = None,
                            evaluate_after_training: bool = False, criteria: dict | None = None,
-                           recipe: str | None = None, overrides=()) -> tuple[TimeToPolicyOptions, list]:
+                           target: str = "criteria", resume: str | None = None, recipe: str | None = None,
+                           overrides=()) -> tuple[TimeToPolicyOptions, list]:
     """The checked options of `time_to_policy` (see it) and the seeds to run, one after another (`[seed]` without
     `seeds`); raises AgileError naming the field for what it refuses, before anything runs."""
     from agile.run.recipes import RECIPES
@@ -279,6 +222,13 @@ def time_to_policy_options(*, task: str, budget_s: float, seed: int | None = Non
     for name, maximum in (criteria or {}).items():
         if not isinstance(maximum, (int, float)):
             raise AgileError(f"criteria: {{metric: maximum}}, a number each; {name} is {maximum!r}")
+    check_target(task, target, criteria)
+    if resume is not None:
+        if seeds is not None:
+            raise AgileError("resume and seeds: a resumed run continues one training (give its seed)")
+        if not Path(resume).is_file():
+            raise AgileError(f"resume: no checkpoint file {resume}")
+        recorded_wall_s(resume)
     # torchrun's ranks take the host's first GPUs, or CPU processes
     device, _ = task_setup.resolve_device(device if gpus == 1 or device == "cpu" else "cuda:0")
     if eval_device is not None:
@@ -288,7 +238,7 @@ def time_to_policy_options(*, task: str, budget_s: float, seed: int | None = Non
         save_interval=save_interval, max_iterations=max_iterations, eval_num_envs=eval_num_envs,
         eval_device=eval_device, eval_episode_length_s=eval_episode_length_s,
         evaluate_after_training=evaluate_after_training, criteria=dict(criteria) if criteria else None,
-        recipe=recipe, overrides=(*RECIPES.get(recipe, ()), *overrides))
+        target=target, resume=resume, recipe=recipe, overrides=(*RECIPES.get(recipe, ()), *overrides))
     return options, list(seeds) if seeds is not None else [seed]
 
 
@@ -296,7 +246,8 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
                    num_envs: int | None = None, device: str | None = None, save_interval: int = 50,
                    max_iterations: int = 100_000, eval_num_envs: int | None = None, eval_device: str | None = None,
                    eval_episode_length_s: float | None = None, evaluate_after_training: bool = False,
-                   criteria: dict | None = None, recipe: str | None = None, overrides=()) -> dict:
+                   criteria: dict | None = None, target: str = "criteria", resume: str | None = None,
+                   log_root: str | None = None, recipe: str | None = None, overrides=()) -> dict:
     """Train `task` from scratch for `budget_s` seconds of wall time (a child process: `agile train`, or torchrun over
     `gpus` GPUs of this host, or CPU ranks with `device` "cpu"; `num_envs` per GPU, a checkpoint every `save_interval`
     iterations) and evaluate its checkpoints against `criteria` ({metric: maximum}; None: the task's, from
@@ -304,6 +255,10 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
     training's), or, with `evaluate_after_training`, in order once the budget is spent. `eval_num_envs`,
     `eval_episode_length_s`: the evaluation setting (default: the task's). `recipe` (agile.run.recipes): its
     overrides before `overrides`. `seeds`: one run per seed, one after another, instead of one with `seed`.
+    `target` "shippable": the task's ship bar instead (its registration's `ship_bar`: the training's mean terrain level,
+    the falls on the start rows and over every row). `resume`: a checkpoint to continue (its recorded wall time counted
+    in). `log_root`: a new folder that keeps the training's run (its checkpoints, to resume from; <log_root>/seed<N>
+    with `seeds`); default a temporary one, deleted at the end.
 
     Writes <out>.json (the result), <out>.log (the training's output) and, with matplotlib, <out>.png (the curve);
     with `seeds`, <out>_seed<N>.json and .log per run and the summary over them in <out>.json. Returns what <out>.json
@@ -315,7 +270,10 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
         task=task, budget_s=budget_s, seed=seed, seeds=seeds, gpus=gpus, num_envs=num_envs, device=device,
         save_interval=save_interval, max_iterations=max_iterations, eval_num_envs=eval_num_envs,
         eval_device=eval_device, eval_episode_length_s=eval_episode_length_s,
-        evaluate_after_training=evaluate_after_training, criteria=criteria, recipe=recipe, overrides=overrides)
+        evaluate_after_training=evaluate_after_training, criteria=criteria, target=target, resume=resume,
+        recipe=recipe, overrides=overrides)
+    if log_root is not None and Path(log_root).exists() and any(Path(log_root).iterdir()):
+        raise AgileError(f"log_root: {log_root} holds files already; give a new folder (its checkpoints are the run's)")
     task_setup.check_writable(f"{out}.json", "out")
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     commit = source_commit()
@@ -323,9 +281,13 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
     for run_seed in seed_list:
         run_options = dataclasses.replace(options, seed=run_seed)
         run_out = out if seeds is None else f"{out}_seed{run_seed}"
-        with tempfile.TemporaryDirectory(prefix="agile_time_to_policy_") as log_root:
-            result = run_until_criteria(run_options, log_root, Path(f"{run_out}.log"))
+        with kept_or_temporary(log_root, None if seeds is None else f"seed{run_seed}") as run_root:
+            result = run_until_criteria(run_options, run_root, Path(f"{run_out}.log"))
+            newest = newest_checkpoint(run_root)
         result.update(device=options.device, commit=commit)
+        if log_root is not None and newest is not None:
+            result["newest_checkpoint"] = str(newest[1])
+            print(f"[agile] the run's newest checkpoint: {newest[1]} (resume to continue it)", flush=True)
         Path(f"{run_out}.json").write_text(json.dumps(result, indent=2))
         met = result["time_to_policy_s"]
         print(f"[agile] {task}, {seed_name(run_seed)}: " + (
@@ -350,6 +312,16 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
     except ImportError:
         print("[agile] no plot: matplotlib is missing (pip install 'agile[plot]')")
     return written
+
+
+def kept_or_temporary(log_root: str | None, subfolder: str | None):
+    """A context holding the folder a run trains in: `log_root` (/`subfolder`), created and kept, or a temporary
+    folder deleted at the end."""
+    if log_root is None:
+        return tempfile.TemporaryDirectory(prefix="agile_time_to_policy_")
+    path = Path(log_root) / subfolder if subfolder else Path(log_root)
+    path.mkdir(parents=True, exist_ok=True)
+    return contextlib.nullcontext(str(path))
 
 
 def criteria_met(result: dict) -> bool:
@@ -385,6 +357,13 @@ def main(argv=None) -> int:
                         help="episode length of an evaluation (default: the task's)")
     parser.add_argument("--criterion", action="append", default=None, metavar="NAME=MAX",
                         help="a criterion instead of the task's (repeat for several), e.g. fall_rate=0.05")
+    parser.add_argument("--target", choices=TARGETS, default="criteria",
+                        help="criteria: the task's criteria; shippable: its ship bar (mean terrain level, falls on "
+                             "the start rows and over every row)")
+    parser.add_argument("--resume", default=None, metavar="CHECKPOINT",
+                        help="continue this checkpoint's training, its recorded wall time counted in")
+    parser.add_argument("--log_root", default=None,
+                        help="a new folder to keep the run in (its checkpoints, to resume; default: deleted)")
     parser.add_argument("--out", required=True, help="write <out>.json and <out>.png (the curve)")
     parser.add_argument("--verbose", action="store_true", help="show Warp's kernel loads and library warnings")
     parser.add_argument("overrides", nargs="*", help=arguments.OVERRIDE_HELP)
@@ -395,8 +374,8 @@ def main(argv=None) -> int:
         num_envs=args.num_envs, device=args.device, save_interval=args.save_interval,
         max_iterations=args.max_iterations, eval_num_envs=args.eval_num_envs, eval_device=args.eval_device,
         eval_episode_length_s=args.eval_episode_length_s, evaluate_after_training=args.evaluate_after_training,
-        criteria=parse_criteria(args.criterion) if args.criterion else None, recipe=args.recipe,
-        overrides=arguments.given_overrides(args))
+        criteria=parse_criteria(args.criterion) if args.criterion else None, target=args.target,
+        resume=args.resume, log_root=args.log_root, recipe=args.recipe, overrides=arguments.given_overrides(args))
     return 0 if criteria_met(result) else 1
 
 

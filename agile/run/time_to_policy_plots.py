@@ -3,8 +3,9 @@ seed, and its verdict in words."""
 
 from __future__ import annotations
 
-CURVE_METRICS = ("fall_rate", "lin_vel_error_mps", "ang_vel_error_radps", "base_height_error_m")
-"""The metrics each evaluation row keeps and the curve draws, those the task measures."""
+CURVE_METRICS = ("fall_rate", "lin_vel_error_mps", "ang_vel_error_radps", "base_height_error_m",
+                 "all_rows_fall_rate", "mean_terrain_level")
+"""The metrics each evaluation row keeps and the curve draws, those the task measures (the last two: a ship bar's)."""
 
 
 def seed_name(seed: int | None) -> str:
@@ -40,6 +41,8 @@ def plot(results: list[dict], path: str, title: str) -> bool:
                 ax.axvline(result["first_iteration_s"], color=line.get_color(), ls=":")
         if metric in results[0]["criteria"]:
             ax.axhline(results[0]["criteria"][metric], color="r", label="maximum")
+        if metric in results[0].get("minima", {}):
+            ax.axhline(results[0]["minima"][metric], color="g", label="minimum")
         ax.set_xlabel("wall time since start [s]")
         ax.set_title(metric)
     axes[0][0].legend(fontsize=6)

@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import sys
+import time
 from functools import partial
 from pathlib import Path
 
@@ -247,8 +248,9 @@ def check_trainer(options: TrainOptions) -> None:
                          f"--run_name, agent.* overrides of its config); it does not take {', '.join(given)}")
 
 
-def build_runner(options: TrainOptions, env, agent_cfg, log_dir: str | None):
-    """The training runner over `env` (NaN actions injected where asked; on a CPU the first env step is timed)."""
+def build_runner(options: TrainOptions, env, agent_cfg, log_dir: str | None, started_at: float | None = None):
+    """The training runner over `env` (NaN actions injected where asked; on a CPU the first env step is timed);
+    `started_at` (time.time()): when the run started."""
     from agile.rl.runner import training_runner
     from agile.rl.progress import show_progress
     from agile.rl.rsl_rl_adapter import set_git_status_repos
@@ -265,7 +267,8 @@ def build_runner(options: TrainOptions, env, agent_cfg, log_dir: str | None):
 
         wrap = partial(FirstStepTimingVecEnv, steps_per_iteration=agent_cfg.num_steps_per_env)
     with task_setup.quiet_stdout():
-        runner = training_runner(env, agent_cfg, log_dir, wrap, overrides=list(options.overrides))
+        runner = training_runner(env, agent_cfg, log_dir, wrap, overrides=list(options.overrides),
+                                 started_at=started_at)
     print(f"[agile] algorithm: {type(runner.alg).__name__}")  # its extensions in the name
     set_git_status_repos(runner, task_setup.git_repos())
     if log_dir is not None:
@@ -314,6 +317,7 @@ def save_interrupted(runner, log_dir: str | None) -> str | None:
 
 def train_single_agent(options: TrainOptions, rank) -> TrainResult:
     """`train` for every kind but multi-agent (`agile.run.task_kinds`)."""
+    started_at = time.time()  # the checkpoints' wall time counts the env build and the kernel compilation
     env_cfg, agent_cfg, device = run_configs(options, rank)
     start = starting_point(options, agent_cfg)
     if start["resume_contents"] is not None:
@@ -328,7 +332,7 @@ def train_single_agent(options: TrainOptions, rank) -> TrainResult:
     if rank is None or rank.is_main:
         log_dir = task_setup.new_log_dir(options.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
         task_setup.dump_configs(log_dir, env_cfg, agent_cfg)
-    runner = build_runner(options, env, agent_cfg, log_dir)
+    runner = build_runner(options, env, agent_cfg, log_dir, started_at)
     restore_start(runner, env, agent_cfg, start, options, log_dir)
     try:
         learn(runner, env_cfg, agent_cfg, device, options, log_dir, start)

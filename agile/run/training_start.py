@@ -171,6 +171,7 @@ def restore_start(runner, env, agent_cfg, start: dict, options: TrainOptions, lo
     if start["resume_path"]:
         print(f"[agile] resuming from {start['resume_path']}")
         restore_runner(runner, start["resume_contents"])  # loaded on the CPU: a GPU run can be resumed on another
+        runner.continue_wall_time(start["resume_contents"])
         env_state = (start["resume_contents"].get("infos") or {}).get("env_state")
         if env_state is not None:  # step counter (reward-weight ramps) and terrain levels
             try:

@@ -51,6 +51,8 @@ class TaskEntry:
     """{metric name of scripts/eval.py's evaluate: maximum allowed}."""
     minima: dict = dataclasses.field(default_factory=dict)
     """{metric name: minimum required}."""
+    ship_bar: dict = dataclasses.field(default_factory=dict)
+    """What a policy trained anew must show to be shipped (the registration's `ship_bar`; empty: none)."""
 
 
 def catalogue_kind(task: str) -> str:
@@ -80,7 +82,7 @@ def task_entry(task: str) -> TaskEntry:
     evaluated = kind in EVALUATED_KINDS
     return TaskEntry(task=task, kind=kind, policy=pretrained_policy(task), has_height_command=height,
                      eval_settings=settings, criteria=criteria if evaluated else {},
-                     minima=dict(spec.eval_minima) if evaluated else {})
+                     minima=dict(spec.eval_minima) if evaluated else {}, ship_bar=dict(spec.ship_bar))
 
 
 def catalogue() -> list[TaskEntry]:

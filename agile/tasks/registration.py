@@ -16,6 +16,9 @@ TASK_KINDS = ("trainable", "distilled", "debug", "multi_agent", "record")
 is a DistillationRunnerCfg naming the teacher task); debug: run by hand in the browser GUI; multi_agent: a world of several agents (a `MultiAgentEnv`); record: records demonstrations with
 another task's policy (`agile record`)."""
 EVAL_SETTING_NAMES = ("num_envs", "num_episodes", "episode_length_s", "overrides")
+SHIP_BAR_FIELDS = ("mean_terrain_level", "fall_rate", "all_rows_fall_rate")
+"""A ship bar: the training's mean terrain level at the checkpoint (a minimum), the falls per episode on the start
+rows and with spawns over every terrain row (maxima)."""
 SPEC_KWARG = "task_spec"
 """The registration kwarg that holds a task's `TaskSpec` (gymnasium passes it to the env, which ignores it)."""
 
@@ -46,6 +49,9 @@ class TaskSpec:
     """{metric: minimum} (shares of success, such as a cube lifted)."""
     eval_settings: dict = dataclasses.field(default_factory=dict)
     """How eval_all evaluates the shipped policy: any of EVAL_SETTING_NAMES (the catalogue's defaults otherwise)."""
+    ship_bar: dict = dataclasses.field(default_factory=dict)
+    """What a policy trained anew must show to be shipped (`agile time_to_policy --target shippable`), every one of
+    SHIP_BAR_FIELDS; empty: the task has none."""
     startup_dataset: str | None = None
     """"module:function" that has the env collect the dataset it builds at its start anew instead of loading the disk
     cache (`function(env_cfg)`; the commands' --no_cache); None: the task builds no dataset at its start."""
@@ -68,6 +74,10 @@ class TaskSpec:
             for metric, bound in getattr(self, name).items():
                 if not isinstance(bound, numbers.Real):
                     raise TaskSpecError(f"task {self.task}: {name}[{metric!r}] must be a number, got {bound!r}")
+        if self.ship_bar and (set(self.ship_bar) != set(SHIP_BAR_FIELDS)
+                              or not all(isinstance(v, numbers.Real) for v in self.ship_bar.values())):
+            raise TaskSpecError(f"task {self.task}: ship_bar holds a number for each of {', '.join(SHIP_BAR_FIELDS)}, "
+                                f"got {self.ship_bar!r}")
         unknown = sorted(set(self.eval_settings) - set(EVAL_SETTING_NAMES))
         if unknown:
             raise TaskSpecError(f"task {self.task}: eval_settings has no field {', '.join(unknown)}; its fields: "

@@ -1,0 +1,139 @@
+"""agile time_to_policy --target shippable: a checkpoint judged against the task's ship bar (the training's mean
+terrain level, then the falls on the start rows, then the falls over every row, each step only where the one before
+passed), and a run resumed from a checkpoint counting its recorded wall time in."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+import torch
+
+from commands import FLAT_GROUND_ARGS
+
+from agile.errors import AgileError
+from agile.run.time_to_policy import main, time_to_policy, time_to_policy_options
+from agile.run.time_to_policy_judge import ALL_ROWS_OVERRIDE, CheckpointJudge, criteria_of
+from agile.tasks.registration import TaskSpec, TaskSpecError
+
+TASK = "Velocity-T1-v0"
+
+
+def checkpoint_at_level(path, level: float, wall_s: float | None = 12.5):
+    """A checkpoint file holding what the judge reads before any evaluation: the env's terrain levels."""
+    infos = {"env_state": {"terrain_levels": torch.full((8,), level)}}
+    if wall_s is not None:
+        infos["wall_s"] = wall_s
+    torch.save({"iter": 0, "infos": infos}, path)
+    return path
+
+
+class RecordingJudge(CheckpointJudge):
+    """The judge with its evaluations given, not run: (name, overrides) of each asked for, in order."""
+
+    def __init__(self, results: dict, **kwargs):
+        options, _ = time_to_policy_options(task=TASK, budget_s=5.0, device="cpu", target="shippable")
+        criteria, minima = criteria_of(TASK, "shippable", None)
+        super().__init__(options, criteria, minima, "cpu", start_epoch=0.0, **kwargs)
+        self.results, self.asked = results, []
+
+    def evaluate(self, name, path, overrides=()):
+        self.asked.append((name, tuple(overrides)))
+        return dict(self.results[name])
+
+
+PASSING = {"fall_rate": 0.01, "lin_vel_error_mps": 0.1, "ang_vel_error_radps": 0.1, "episodes": 512}
+
+
+def test_the_ship_bar_adds_to_the_tasks_criteria():
+    maxima, minima = criteria_of(TASK, "shippable", None)
+    assert maxima == {"fall_rate": 0.03, "lin_vel_error_mps": 0.25, "ang_vel_error_radps": 0.3,
+                      "all_rows_fall_rate": 0.10}
+    assert minima == {"mean_terrain_level": 10.0}
+    assert criteria_of(TASK, "criteria", None)[0]["fall_rate"] == 0.05  # the task's own criteria unchanged
+
+
+def test_below_the_terrain_level_nothing_is_evaluated(tmp_path):
+    judge = RecordingJudge({})
+    row = judge(300, checkpoint_at_level(tmp_path / "model_300.pt", 4.0))
+    assert judge.asked == [] and not row["met"] and row["mean_terrain_level"] == 4.0
+    assert row["missed"] == ["mean_terrain_level 4 < 10"]
+
+
+def test_the_start_rows_first_then_every_row(tmp_path):
+    path = checkpoint_at_level(tmp_path / "model_900.pt", 11.0)
+    falling = RecordingJudge({"start rows": {**PASSING, "fall_rate": 0.04}})
+    row = falling(900, path)
+    assert falling.asked == [("start rows", ())] and not row["met"]  # 4% > the bar's 3%: no all-rows evaluation
+    assert row["missed"] == ["fall_rate 0.04 > 0.03"]
+    judge = RecordingJudge({"start rows": PASSING, "all rows": {**PASSING, "fall_rate": 0.12}})
+    row = judge(900, path)
+    assert judge.asked == [("start rows", ()), ("all rows", (ALL_ROWS_OVERRIDE,))]
+    assert row["missed"] == ["all_rows_fall_rate 0.12 > 0.1"] and row["all_rows_fall_rate"] == 0.12
+    shippable = RecordingJudge({"start rows": PASSING, "all rows": {**PASSING, "fall_rate": 0.08}})
+    assert shippable(900, path)["met"]
+
+
+def test_a_resumed_runs_checkpoints_count_the_wall_time_before(tmp_path):
+    path = checkpoint_at_level(tmp_path / "model_10.pt", 1.0)
+    judge = RecordingJudge({}, wall_s_before=1000.0)
+    assert judge(10, path)["wall_s"] == round(1000.0 + path.stat().st_mtime, 1)  # start_epoch 0
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"target": "best"}, "target must be one of criteria, shippable, got 'best'"),
+    ({"target": "shippable", "criteria": {"fall_rate": 0.5}}, "criteria and target shippable: give one"),
+    ({"target": "shippable", "task": "Velocity-Go1-v0"},
+     "target shippable: Velocity-Go1-v0 has no ship bar (ship_bar in its registration); tasks with one: "
+     "Velocity-G1-History-v0, Velocity-T1-v0"),
+    ({"resume": "missing.pt"}, "resume: no checkpoint file missing.pt"),
+    ({"resume": "model.pt", "seeds": [0, 1]}, "resume and seeds: a resumed run continues one training"),
+])
+def test_refused_before_anything_runs(tmp_path, monkeypatch, changes, message):
+    monkeypatch.chdir(tmp_path)
+    checkpoint_at_level(tmp_path / "model.pt", 1.0)
+    with pytest.raises(AgileError, match=re.escape(message)):
+        time_to_policy(**{"task": TASK, "budget_s": 5.0, "out": str(tmp_path / "out" / "run"), "device": "cpu",
+                          **changes})
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_checkpoint_without_its_wall_time_cannot_be_continued(tmp_path):
+    old = checkpoint_at_level(tmp_path / "old.pt", 1.0, wall_s=None)
+    with pytest.raises(AgileError, match=re.escape(f"resume: {old} records no training wall time")):
+        time_to_policy_options(task=TASK, budget_s=5.0, device="cpu", resume=str(old))
+
+
+def test_a_kept_log_root_must_be_new(tmp_path):
+    (tmp_path / "runs").mkdir()
+    (tmp_path / "runs" / "old.txt").write_text("x")
+    with pytest.raises(AgileError, match="log_root: .* holds files already; give a new folder"):
+        time_to_policy(task=TASK, budget_s=5.0, out=str(tmp_path / "run"), device="cpu",
+                       log_root=str(tmp_path / "runs"))
+
+
+def test_a_ship_bar_names_its_fields():
+    with pytest.raises(TaskSpecError, match="ship_bar holds a number for each of mean_terrain_level, fall_rate, "
+                                            "all_rows_fall_rate"):
+        TaskSpec(task="X-v0", env_cfg_entry_point="m:a", runner_cfg_entry_point="m:b", ship_bar={"fall_rate": 0.1})
+
+
+@pytest.mark.slow
+def test_a_run_kept_in_its_log_root_resumes_counting_its_wall_time_on(tmp_path, capsys):
+    """A run whose checkpoints are kept (--log_root), then a second run resuming its newest: the second run's
+    checkpoints are timed from the first run's start (the checkpoint's recorded wall time, then its own)."""
+    common = ["--task", TASK, "--budget_s", "300", "--num_envs", "2", "--device", "cpu", "--save_interval", "1",
+              "--eval_num_envs", "2", "--eval_episode_length_s", "0.2", "--evaluate_after_training",
+              "--criterion", "fall_rate=1.0", "agent.num_steps_per_env=2", *FLAT_GROUND_ARGS]
+    assert main([*common, "--max_iterations", "2", "--log_root", str(tmp_path / "runs"),
+                 "--out", str(tmp_path / "first")]) == 0, capsys.readouterr()
+    first = json.loads((tmp_path / "first.json").read_text())
+    newest = first["newest_checkpoint"]
+    recorded = torch.load(newest, weights_only=True)["infos"]["wall_s"]
+    assert newest.endswith("model_1.pt") and 0 < recorded < 300
+    assert main([*common, "--max_iterations", "1", "--resume", newest, "--out", str(tmp_path / "second")]) == 0
+    second = json.loads((tmp_path / "second.json").read_text())
+    assert second["resumed_from"] == newest and second["wall_s_before"] == recorded
+    (row,) = second["evaluations"]
+    assert row["iteration"] == 2 and row["wall_s"] > recorded  # the resumed run's own checkpoint, timed on
