@@ -238,6 +238,20 @@ def test_commands_train_eval_play_and_export_a_multi_agent_task(tmp_path, capsys
     assert code == 0 and (tmp_path / "exported" / "t1" / "io_descriptor.yaml").is_file(), out + err
     code, out, err = run("train", "--init_policy", f"robot={shipped / 'Velocity-T1-v0.pt'}")
     assert code == 2 and err.startswith("error: --init_policy takes GROUP=PATH with GROUP one of ['g1', 't1']"), err
+    # each group's checkpoint records the training's wall time, and a resume counts on from it, group by group
+    import torch
+
+    g1_checkpoint = torch.load(run_dir / "g1" / "model_0.pt", weights_only=True)
+    assert 0 < g1_checkpoint["infos"]["wall_s"] < 600
+    g1_checkpoint["infos"]["wall_s"] = 1e6
+    torch.save(g1_checkpoint, run_dir / "g1" / "model_0.pt")
+    code, out, err = run("train", "--num_envs", "2", "--max_iterations", "1", "--log_root", str(tmp_path / "resumed"),
+                         "--resume", "--checkpoint", str(run_dir), "agent.rollout_s=0.08")
+    assert code == 0, out + err
+    resumed_dir = next((tmp_path / "resumed" / "multi_rate_g1_t1_velocity").iterdir())
+    wall_s = {group: torch.load(resumed_dir / group / "model_1.pt", weights_only=True)["infos"]["wall_s"]
+              for group in ("g1", "t1")}
+    assert 1e6 < wall_s["g1"] < 1e6 + 600 and 0 < wall_s["t1"] < 1200, wall_s
 
 
 ROBOTS = ("go1_a", "go1_b")

@@ -32,7 +32,8 @@ class MultiAgentRunner:
     the world slot by slot, each group acting and storing its transitions at its own slots, and updates every
     group after each rollout of `cfg.rollout_s` simulated seconds."""
 
-    def __init__(self, world: MultiAgentEnv, cfg: MultiAgentRunnerCfg, log_dir: str | None, device: str):
+    def __init__(self, world: MultiAgentEnv, cfg: MultiAgentRunnerCfg, log_dir: str | None, device: str,
+                 started_at: float | None = None):
         self.world = world
         self.cfg = cfg
         self.log_dir = log_dir
@@ -54,7 +55,8 @@ class MultiAgentRunner:
             group.runner.num_steps_per_env = rollout_steps // view.env.cfg.decimation
             runner_dir = None if log_dir is None else os.path.join(log_dir, name)
             self.views[name] = view
-            self.runners[name] = CheckpointingRunner(view, to_rsl_rl_dict(group.runner), log_dir=runner_dir, device=device)
+            self.runners[name] = CheckpointingRunner(view, to_rsl_rl_dict(group.runner), log_dir=runner_dir,
+                                                     device=device, started_at=started_at)
         self.device = device
         self.current_learning_iteration = 0
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+import time
 from pathlib import Path
 
 from agile.run import task_setup
@@ -81,6 +82,7 @@ def train_multi_agent(options, rank):
     check_train_options(options)
     if rank is not None:
         raise AgileError("--distributed trains single-agent tasks; a multi-agent task trains on one device")
+    started_at = time.time()  # the checkpoints' wall time counts the world build and the kernel compilation
     env_cfg, agent_cfg, device = run_configs(options)
     init_files = group_files(options.init_policy, agent_cfg.groups, "--init_policy")
     init_contents = {g: task_setup.read_checkpoint(p, options.trust_checkpoint) for g, p in init_files.items()}
@@ -94,12 +96,13 @@ def train_multi_agent(options, rank):
     task_setup.dump_configs(log_dir, env_cfg, agent_cfg)
     try:
         with task_setup.quiet_stdout():
-            runner = MultiAgentRunner(world, agent_cfg, log_dir, str(world.device))
+            runner = MultiAgentRunner(world, agent_cfg, log_dir, str(world.device), started_at=started_at)
     except ConfigError as err:
         raise AgileError(str(err)) from err
     for group, contents in resume_contents.items():
         print(f"[agile] group '{group}': resuming from {resume_files[group]}")
         restore_runner(runner.runners[group], contents)
+        runner.runners[group].continue_wall_time(contents)
     if resume_contents:  # the next iteration after the newest group's
         runner.current_learning_iteration = max(c["iter"] for c in resume_contents.values()) + 1
     for group, contents in init_contents.items():
