@@ -18,6 +18,7 @@ from agile.sim import ContactSensorCfg, HeightScannerCfg, SceneCfg
 from agile.tasks.velocity.t1 import velocity_env_cfg as t1_task
 from agile.tasks.velocity.t1.agents.rsl_rl_cfg import t1_velocity_ppo_runner_cfg
 from agile.tasks.multi_agent.multi_rate_velocity_env_cfg import t1_agent_cfg
+from agile.tasks.multi_agent.velocity_agents import TRUNK_ON_GROUND, trunk_on_ground_sensors
 from agile.utils.config import ConfigError
 
 TASK = "MultiRate-G1-T1-Velocity-v0"
@@ -119,10 +120,12 @@ def two_t1_world(num_envs: int = 2) -> MultiAgentEnv:
         entities[name] = robot
         sensors[f"{name}_contacts"] = ContactSensorCfg(entity=name, body_names=["Trunk", "Waist",
                                                                                 *t1_task.FOOT_BODIES])
+        sensors.update(trunk_on_ground_sensors({name: ["Trunk", "Waist"]}))
         heights[f"{name}_height"] = HeightScannerCfg(entity=name, body_name="Trunk")
         agent = t1_agent_cfg()
         agent.scene_names = {"robot": name, "contact_forces": f"{name}_contacts",
-                             "height_measurement_sensor": f"{name}_height"}
+                             "height_measurement_sensor": f"{name}_height",
+                             TRUNK_ON_GROUND: f"{name}_{TRUNK_ON_GROUND}"}
         agent.rewards = t1_task.RewardsCfg()
         agents[name] = agent
     cfg = MultiAgentEnvCfg(num_envs=num_envs, episode_length_s=1.0, agents=agents,
@@ -370,3 +373,18 @@ def test_a_go1_whose_trunk_touches_the_other_plays_on_and_one_on_its_back_falls(
         assert trunk_contact == {"go1_a": [False, True], "go1_b": [False, False]}
     finally:
         world.close()
+
+
+def test_both_multi_agent_velocity_tasks_end_on_the_grounds_force_on_a_trunk_alone():
+    """MultiRate-G1-T1's humanoids, as Shared-Go1's quadrupeds: each agent's trunk-contact termination reads its
+    robot's sensor filtered to the ground, on the same trunk bodies as its single-robot task's termination."""
+    import agile.tasks
+
+    for task in ("MultiRate-G1-T1-Velocity-v0", "Shared-Go1-Velocity-v0"):
+        env_cfg, _ = agile.tasks.load_cfgs(task)
+        for name, agent in env_cfg.agents.items():
+            term = agent.terminations.illegal_ground_contact
+            sensor = env_cfg.scene.contact_sensors[agent.scene_names[TRUNK_ON_GROUND]]
+            assert term.params["sensor_cfg"].name == TRUNK_ON_GROUND, (task, name)
+            assert sensor.entity == name and sensor.filter_entity == "ground", (task, name)
+            assert list(sensor.body_names) == list(term.params["sensor_cfg"].body_names), (task, name)

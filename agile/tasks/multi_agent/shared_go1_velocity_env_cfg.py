@@ -20,6 +20,7 @@ from agile.marl import AgentCfg, MultiAgentEnvCfg
 from agile.rl_env.managers import ObsTerm
 from agile.sim import ContactSensorCfg, SceneCfg
 from agile.tasks.multi_agent.velocity_agents import (keep_clear_penalty, other_robot_obs, touch_penalty,
+                                                    trunk_on_ground_sensors, trunk_on_ground_terminations,
                                                     velocity_scene_names)
 from agile.tasks.velocity.go1 import velocity_env_cfg as go1_task
 from agile.tasks.velocity.velocity_common import (BASE_HEIGHT_SENSOR, CONTACT_SENSOR, VelocityCriticObsCfg,
@@ -31,10 +32,6 @@ SPAWN_OFFSET_Y_M = 0.75
 """Each robot spawns this far from the env origin, go1_a to the right (-y), go1_b to the left (a Go1 is 0.3 m wide)."""
 RESET_XY_RANGE_M = 0.3
 TOUCH_SENSOR = "go1_a_touches_go1_b"
-TRUNK_ON_GROUND = "trunk_on_ground"
-"""Each robot's sensor of the ground's force on its trunk: the trunk-contact termination reads it, so that a touch
-of the other robot is not a fall (with the net force, 8 of the 9 falls of the policy at iteration 1,850 ended by
-trunk contact spawned 1.5 m apart, none spawned 16 m apart: CPU, 48 envs x 20 s, seed 1, 2026-12-03)."""
 SINGLE = go1_task.go1_flat_velocity_env_cfg()
 """The single-robot task whose MDP each agent runs."""
 
@@ -52,9 +49,7 @@ SCENE = SceneCfg(
         **{f"{name}_contact_forces": dataclasses.replace(SINGLE.scene.contact_sensors[CONTACT_SENSOR], entity=name)
            for name in ROBOTS},
         TOUCH_SENSOR: ContactSensorCfg(entity="go1_a", filter_entity="go1_b", history_length=1, track_air_time=False),
-        **{f"{name}_{TRUNK_ON_GROUND}": ContactSensorCfg(entity=name, body_names=[BASE_BODY],
-                                                          filter_entity="ground", history_length=1,
-                                                          track_air_time=False) for name in ROBOTS},
+        **trunk_on_ground_sensors({name: [BASE_BODY] for name in ROBOTS}),
     },
     height_scanners={f"{name}_base_height": dataclasses.replace(SINGLE.scene.height_scanners[BASE_HEIGHT_SENSOR],
                                                                 entity=name) for name in ROBOTS},
@@ -86,21 +81,13 @@ class RewardsCfg(go1_task.RewardsCfg):
     touch_other_robot = touch_penalty(TOUCH_SENSOR)  # both agents pay it
 
 
-def trunk_on_ground_terminations():
-    """The single task's terminations, its trunk contact read from the ground's force alone."""
-    contact = SINGLE.terminations.illegal_ground_contact
-    sensor = dataclasses.replace(contact.params["sensor_cfg"], name=TRUNK_ON_GROUND)
-    return dataclasses.replace(SINGLE.terminations, illegal_ground_contact=dataclasses.replace(
-        contact, params={**contact.params, "sensor_cfg": sensor}))
-
-
 def go1_agent_cfg(entity: str, other: str) -> AgentCfg:
     """Velocity-Flat-Go1-v0's MDP driving `entity` at its 50 Hz, seeing where `other` is."""
     return AgentCfg(
         decimation=SINGLE.decimation,
-        scene_names={**velocity_scene_names(entity, other_robot=other), TRUNK_ON_GROUND: f"{entity}_{TRUNK_ON_GROUND}"},
+        scene_names=velocity_scene_names(entity, other_robot=other),
         commands=go1_task.CommandsCfg(), actions=go1_task.ActionsCfg(), observations=ObservationsCfg(),
-        rewards=RewardsCfg(), terminations=trunk_on_ground_terminations(),
+        rewards=RewardsCfg(), terminations=trunk_on_ground_terminations(SINGLE.terminations),
         events=dataclasses.replace(SINGLE.events, reset_base=uniform_root_reset(xy_range_m=RESET_XY_RANGE_M)))
 
 
