@@ -108,7 +108,7 @@ def test_a_checkpoint_without_its_wall_time_cannot_be_continued(tmp_path):
 def test_a_kept_log_root_must_be_new(tmp_path):
     (tmp_path / "runs").mkdir()
     (tmp_path / "runs" / "old.txt").write_text("x")
-    with pytest.raises(AgileError, match="log_root: .* holds files already; give a new folder"):
+    with pytest.raises(AgileError, match="log_root: .* is not an empty folder; give a new one"):
         time_to_policy(task=TASK, budget_s=5.0, out=str(tmp_path / "run"), device="cpu",
                        log_root=str(tmp_path / "runs"))
 

@@ -20,8 +20,9 @@ class CheckpointingRunner(CpuRanksRunnerMixin, OnPolicyRunner):
     the env's training state (`infos["env_state"]`, from the env's `training_state()` where it has one) and the
     config overrides the run was started with (`infos["overrides"]`: what `agile eval` and a resume compare their
     own against) and its wall time (`infos["wall_s"]`: seconds since the training started, those of the runs it
-    continues included; `agile time_to_policy --resume` counts on from it), and a logger that does not synchronise with the GPU at every env step (`SyncFreeLogger`); CPU
-    ranks train across processes too, with gloo (`CpuRanksRunnerMixin`)."""
+    continues included; `agile time_to_policy --resume` counts on from it), and a logger that does not synchronise
+    with the GPU at every env step (`SyncFreeLogger`); CPU ranks train across processes too, with gloo
+    (`CpuRanksRunnerMixin`)."""
 
     def __init__(self, *args, overrides: tuple[str, ...] | list[str] = (), started_at: float | None = None,
                  **kwargs):

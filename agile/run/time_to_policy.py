@@ -22,8 +22,8 @@ time to policy is then when the first one that meets the criteria was written, a
 would have reached it. `--target shippable` judges by the task's ship bar instead (`ship_bar` of its registration:
 the training's mean terrain level, read from the checkpoint, then the falls on the start rows, then over every row);
 a training that outlasts one budget continues with `--resume` from the newest checkpoint of a run kept with
-`--log_root`, its wall time counted on from the time the checkpoint records. From Python: `time_to_policy(task=..., budget_s=..., out=..., ...)` returns what <out>.json
-holds.
+`--log_root`, its wall time counted on from the time the checkpoint records. From Python:
+`time_to_policy(task=..., budget_s=..., out=..., ...)` returns what <out>.json holds.
 """
 
 from __future__ import annotations
@@ -272,8 +272,10 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
         eval_device=eval_device, eval_episode_length_s=eval_episode_length_s,
         evaluate_after_training=evaluate_after_training, criteria=criteria, target=target, resume=resume,
         recipe=recipe, overrides=overrides)
-    if log_root is not None and Path(log_root).exists() and any(Path(log_root).iterdir()):
-        raise AgileError(f"log_root: {log_root} holds files already; give a new folder (its checkpoints are the run's)")
+    if log_root is not None and Path(log_root).exists() and (not Path(log_root).is_dir()
+                                                             or any(Path(log_root).iterdir())):
+        raise AgileError(f"log_root: {log_root} is not an empty folder; give a new one (the run's checkpoints go "
+                         f"there)")
     task_setup.check_writable(f"{out}.json", "out")
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     commit = source_commit()

@@ -62,7 +62,8 @@ def velocity_agent_cfg(task, entity: str, decimation: int, rewards, base_body: s
     return AgentCfg(
         decimation=decimation,
         scene_names=velocity_scene_names(entity),
-        commands=task.CommandsCfg(), actions=dataclasses.replace(task.ActionsCfg(), random_pos=None), observations=task.ObservationsCfg(), rewards=rewards,
+        commands=task.CommandsCfg(), actions=dataclasses.replace(task.ActionsCfg(), random_pos=None),
+        observations=task.ObservationsCfg(), rewards=rewards,
         terminations=trunk_on_ground_terminations(
             velocity_terminations_cfg(task.BASE_HEIGHT_TARGET_M, trunk_bodies=TRUNK_BODIES[entity])),
         events=events)
