@@ -2,8 +2,10 @@
 evaluated as they appear (or after the training) and the run reports the first one that meets the criteria."""
 
 import json
+from pathlib import Path
 
 import pytest
+import torch
 
 from commands import FLAT_GROUND_ARGS
 
@@ -61,12 +63,16 @@ def test_seeds_run_one_after_another_evaluated_after_the_training_and_summarised
     """--seeds: one training per seed (its own JSON and log), then the summary over them, one curve per seed. Each
     training runs undisturbed (here to its third and last iteration, well inside the budget: on a machine compiling
     the kernels the first iteration came at 35 s); then its checkpoints are evaluated in order, and the first that
-    meets the criteria (here: the first of all) gives the time to policy, when it was written."""
+    meets the criteria (here: the first of all) gives the time to policy, when it was written. Each seed's run is
+    kept (--log_root/seed<N>), and a second run resuming one's newest checkpoint is timed on from the wall time the
+    checkpoint records."""
     out = tmp_path / "seeds"
-    code = main(["--task", "Velocity-T1-v0", "--seeds", "3", "4", "--budget_s", "300", "--max_iterations", "3",
-                 "--num_envs", "2", "--device", "cpu", "--save_interval", "1", "--eval_num_envs", "2",
-                 "--eval_episode_length_s", "0.2", "--evaluate_after_training", "--criterion", "fall_rate=1.0",
-                 "--out", str(out), "--recipe", "fast", "agent.num_steps_per_env=2", *FLAT_GROUND_ARGS])
+    common = ["--task", "Velocity-T1-v0", "--budget_s", "300", "--num_envs", "2", "--device", "cpu",
+              "--save_interval", "1", "--eval_num_envs", "2", "--eval_episode_length_s", "0.2",
+              "--evaluate_after_training", "--criterion", "fall_rate=1.0", "--recipe", "fast",
+              "agent.num_steps_per_env=2", *FLAT_GROUND_ARGS]
+    code = main(["--seeds", "3", "4", "--max_iterations", "3", "--log_root", str(tmp_path / "runs"),
+                 "--out", str(out), *common])
     assert code == 0, capsys.readouterr()
     summary = json.loads(out.with_suffix(".json").read_text())
     runs = [json.loads((tmp_path / name).read_text()) for name in summary["runs"]]
@@ -82,6 +88,16 @@ def test_seeds_run_one_after_another_evaluated_after_the_training_and_summarised
         # what it trained with is in the JSON: the recipe's overrides, then the given ones
         assert result["recipe"] == "fast" and result["overrides"][:len(RECIPES["fast"])] == list(RECIPES["fast"])
         assert result["overrides"][len(RECIPES["fast"])] == "agent.num_steps_per_env=2"
+        assert Path(result["newest_checkpoint"]).is_relative_to(tmp_path / "runs" / f"seed{seed}")
+    newest = runs[1]["newest_checkpoint"]
+    recorded = torch.load(newest, weights_only=True)["infos"]["wall_s"]
+    assert newest.endswith("model_2.pt") and 0 < recorded < 300
+    assert main(["--seed", "4", "--max_iterations", "1", "--resume", newest, "--out", str(tmp_path / "resumed"),
+                 *common]) == 0, capsys.readouterr()
+    resumed = json.loads((tmp_path / "resumed.json").read_text())
+    assert resumed["resumed_from"] == newest and resumed["wall_s_before"] == recorded
+    (row,) = resumed["evaluations"]
+    assert row["iteration"] == 3 and row["wall_s"] > recorded  # the resumed run's own checkpoint, timed on
 
 
 def test_the_seed_summary_counts_a_miss_as_its_budget():

@@ -1,19 +1,17 @@
 """agile time_to_policy --target shippable: a checkpoint judged against the task's ship bar (the training's mean
 terrain level, then the falls on the start rows, then the falls over every row, each step only where the one before
-passed), and a run resumed from a checkpoint counting its recorded wall time in."""
+passed), and a run resumed from a checkpoint counting its recorded wall time in (a whole run resumed:
+test_time_to_policy.py's seeds test)."""
 
 from __future__ import annotations
 
-import json
 import re
 
 import pytest
 import torch
 
-from commands import FLAT_GROUND_ARGS
-
 from agile.errors import AgileError
-from agile.run.time_to_policy import main, time_to_policy, time_to_policy_options
+from agile.run.time_to_policy import time_to_policy, time_to_policy_options
 from agile.run.time_to_policy_judge import ALL_ROWS_OVERRIDE, CheckpointJudge, criteria_of
 from agile.tasks.registration import TaskSpec, TaskSpecError
 
@@ -117,23 +115,3 @@ def test_a_ship_bar_names_its_fields():
     with pytest.raises(TaskSpecError, match="ship_bar holds a number for each of mean_terrain_level, fall_rate, "
                                             "all_rows_fall_rate"):
         TaskSpec(task="X-v0", env_cfg_entry_point="m:a", runner_cfg_entry_point="m:b", ship_bar={"fall_rate": 0.1})
-
-
-@pytest.mark.slow
-def test_a_run_kept_in_its_log_root_resumes_counting_its_wall_time_on(tmp_path, capsys):
-    """A run whose checkpoints are kept (--log_root), then a second run resuming its newest: the second run's
-    checkpoints are timed from the first run's start (the checkpoint's recorded wall time, then its own)."""
-    common = ["--task", TASK, "--budget_s", "300", "--num_envs", "2", "--device", "cpu", "--save_interval", "1",
-              "--eval_num_envs", "2", "--eval_episode_length_s", "0.2", "--evaluate_after_training",
-              "--criterion", "fall_rate=1.0", "agent.num_steps_per_env=2", *FLAT_GROUND_ARGS]
-    assert main([*common, "--max_iterations", "2", "--log_root", str(tmp_path / "runs"),
-                 "--out", str(tmp_path / "first")]) == 0, capsys.readouterr()
-    first = json.loads((tmp_path / "first.json").read_text())
-    newest = first["newest_checkpoint"]
-    recorded = torch.load(newest, weights_only=True)["infos"]["wall_s"]
-    assert newest.endswith("model_1.pt") and 0 < recorded < 300
-    assert main([*common, "--max_iterations", "1", "--resume", newest, "--out", str(tmp_path / "second")]) == 0
-    second = json.loads((tmp_path / "second.json").read_text())
-    assert second["resumed_from"] == newest and second["wall_s_before"] == recorded
-    (row,) = second["evaluations"]
-    assert row["iteration"] == 2 and row["wall_s"] > recorded  # the resumed run's own checkpoint, timed on
