@@ -84,6 +84,9 @@ def test_train_reload_and_evaluate_happo_on_the_multi_rate_world(tmp_path, capsy
     assert "happo iteration 1" in out
 
     contents = torch.load(run_dir / "happo_1.pt", weights_only=True)
+    # the run's wall time since its start, as agile's PPO checkpoints record it, later in the later checkpoint
+    first_wall_s = torch.load(run_dir / "happo_0.pt", weights_only=True)["infos"]["wall_s"]
+    assert 0 < first_wall_s < contents["infos"]["wall_s"] < 600
     world = gym.make(TASK, num_envs=2, device="cpu", seed=1).unwrapped
     runner = HappoRunner(world, HappoCfg(**contents["cfg"]), None, "cpu")
     runner.load(contents)

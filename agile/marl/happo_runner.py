@@ -22,7 +22,10 @@ class HappoRunner:
     """Collect `cfg.rollout_s` simulated seconds slot by slot, then update the agents one after another in a random
     order (each weighted by the ratios of the agents updated before it) and the critic."""
 
-    def __init__(self, world: MultiAgentEnv, cfg: HappoCfg, log_dir: str | None, device: str):
+    def __init__(self, world: MultiAgentEnv, cfg: HappoCfg, log_dir: str | None, device: str,
+                 started_at: float | None = None):
+        self.started_at = time.time() if started_at is None else started_at
+        """time.time() when the run started: each checkpoint records the seconds since (`infos["wall_s"]`)."""
         self.view = HarlWorldView(world, cfg.actor_group, cfg.critic_group)
         self.world, self.cfg, self.log_dir, self.device = world, cfg, log_dir, device
         rollout_steps = rollout_physics_steps(world, cfg.rollout_s)
@@ -188,8 +191,10 @@ class HappoRunner:
     # -- checkpoints --------------------------------------------------------------------------------------------
 
     def save(self, path: str) -> None:
-        """Every actor, the critic and their optimisers; written to a temporary file, then renamed."""
+        """Every actor, the critic and their optimisers, and the run's wall time so far (`infos["wall_s"]`, as
+        agile's PPO checkpoints); written to a temporary file, then renamed."""
         saved = {"trainer": "happo", "iter": self.current_learning_iteration, "cfg": to_dict(self.cfg),
+                 "infos": {"wall_s": round(time.time() - self.started_at, 1)},
                  "actors": {n: {"model": a.actor.state_dict(), "optimizer": a.actor_optimizer.state_dict()}
                             for n, a in self.actors.items()},
                  "critic": {"model": self.critic.critic.state_dict(),

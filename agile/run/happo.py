@@ -3,6 +3,7 @@ happo_<iteration>.pt in the run folder, evaluated per agent as the per-group PPO
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 from agile.errors import AgileError
@@ -18,11 +19,11 @@ def newest_checkpoint(run_dir: str) -> str | None:
     return str(found[-1]) if found else None
 
 
-def build_runner(world, cfg, log_dir: str | None):
+def build_runner(world, cfg, log_dir: str | None, started_at: float | None = None):
     from agile.marl.happo_runner import HappoRunner
 
     try:
-        return HappoRunner(world, cfg, log_dir, str(world.device))
+        return HappoRunner(world, cfg, log_dir, str(world.device), started_at=started_at)
     except ConfigError as err:
         raise AgileError(str(err)) from err
 
@@ -48,12 +49,13 @@ def train(options):
     from agile.run.multi_agent import make_world
     from agile.run.train import TrainResult, run_configs
 
+    started_at = time.time()  # the checkpoints' wall time counts the world build and the kernel compilation
     env_cfg, cfg, device = run_configs(options)
     check_observation_groups(env_cfg, cfg)
     world = make_world(options.task, env_cfg, device)
     log_dir = task_setup.new_log_dir(options.log_root, cfg.experiment_name, cfg.run_name)
     task_setup.dump_configs(log_dir, env_cfg, cfg)
-    runner = build_runner(world, cfg, log_dir)
+    runner = build_runner(world, cfg, log_dir, started_at)
     print(f"[agile] HAPPO (harl-aht): actors {', '.join(runner.actors)}, critic on a state of "
           f"{runner.view.state_space.shape[0]}, {runner.slots_per_rollout} slots per rollout")
     runner.learn(cfg.max_iterations)
