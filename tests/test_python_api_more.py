@@ -41,8 +41,8 @@ def test_time_to_policy_refuses_bad_options_naming_the_field_before_anything_run
 
 def test_time_to_policy_resolves_its_criteria_recipe_and_training_command():
     from agile.run.recipes import RECIPES
-    from agile.run.time_to_policy import time_to_policy_options, training_command
-    from agile.run.time_to_policy_judge import criteria_of, parse_criteria
+    from agile.run.time_to_policy import parse_criteria, time_to_policy_options, training_command
+    from agile.run.time_to_policy_judge import criteria_of
     from agile.tasks.catalogue import task_entry
 
     options, seeds = time_to_policy_options(task=TASK, budget_s=5.0, device="cpu", recipe="fast", seeds=[3, 4],

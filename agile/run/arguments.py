@@ -97,6 +97,21 @@ def parse(parser: argparse.ArgumentParser, argv=None):
     return args
 
 
+def parse_number_items(items: list[str], message: str) -> dict[str, float]:
+    """{name: number} of NAME=NUMBER items, split at the last "=" (a name may be a regex holding one); AgileError with
+    `message` (its "{item}" the item) for an item without a name or a number."""
+    parsed = {}
+    for item in items:
+        name, sep, value = item.rpartition("=")
+        try:
+            parsed[name] = float(value)
+        except ValueError:
+            sep = ""
+        if not sep or not name:
+            raise AgileError(message.format(item=item))
+    return parsed
+
+
 def given_overrides(args) -> list[str]:
     """The overrides given on the command line, without the --recipe's that `parse` put before them (for a library
     function that takes the recipe and applies it itself)."""

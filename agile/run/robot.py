@@ -13,25 +13,10 @@ Exit status: 0 when no problem was found, 1 when some were, 2 for a file that ca
 
 from __future__ import annotations
 
-from agile.errors import AgileError
 from agile.run import arguments
 
 EXIT_PROBLEMS = 1
 """Exit code of `agile robot check` when it found problems (2 stays a refused input)."""
-
-
-def parse_joint_pos(items: list[str]) -> dict[str, float]:
-    """{regex: rad} from REGEX=RAD items."""
-    pose = {}
-    for item in items:
-        expr, sep, value = item.rpartition("=")
-        try:
-            pose[expr] = float(value)
-        except ValueError:
-            sep = ""
-        if not sep or not expr:
-            raise AgileError(f"--joint_pos takes REGEX=RAD items, got '{item}'")
-    return pose
 
 
 @arguments.command
@@ -48,7 +33,7 @@ def main(argv=None) -> int:
                        help="MJCF classes whose geoms collide (a robot definition's mjcf_collider_classes)")
     check.add_argument("--verbose", action="store_true", help="show Warp's kernel loads and library warnings")
     args = parser.parse_args(argv)
-    joint_pos = parse_joint_pos(args.joint_pos)
+    joint_pos = arguments.parse_number_items(args.joint_pos, "--joint_pos takes REGEX=RAD items, got '{item}'")
     from agile.run import task_setup
 
     task_setup.configure_output(verbose=args.verbose)

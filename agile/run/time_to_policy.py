@@ -43,7 +43,7 @@ from pathlib import Path
 from agile.run.arguments import command
 from agile.run import arguments, task_setup
 from agile.errors import AgileError
-from agile.run.time_to_policy_judge import TARGETS, CheckpointJudge, check_target, criteria_of, parse_criteria
+from agile.run.time_to_policy_judge import TARGETS, CheckpointJudge, check_target, criteria_of
 from agile.run.time_to_policy_plots import outcome, plot, seed_name
 
 FIRST_ITERATION_MARK = "Learning iteration"
@@ -314,6 +314,11 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
     except ImportError:
         print("[agile] no plot: matplotlib is missing (pip install 'agile[plot]')")
     return written
+
+
+def parse_criteria(specs: list[str]) -> dict[str, float]:
+    """{name: maximum} of the command line's --criterion NAME=MAX."""
+    return arguments.parse_number_items(specs, "--criterion takes NAME=MAXIMUM, e.g. fall_rate=0.05; got '{item}'")
 
 
 def kept_or_temporary(log_root: str | None, subfolder: str | None):

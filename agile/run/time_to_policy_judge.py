@@ -50,18 +50,6 @@ def evaluator(task: str, overrides: list[str], device: str, num_envs: int | None
     return run
 
 
-def parse_criteria(specs: list[str]) -> dict[str, float]:
-    """{name: maximum} of the command line's --criterion NAME=MAX."""
-    criteria = {}
-    for spec in specs:
-        name, _, value = spec.partition("=")
-        try:
-            criteria[name] = float(value)
-        except ValueError:
-            raise AgileError(f"--criterion takes NAME=MAXIMUM, e.g. fall_rate=0.05; got '{spec}'")
-    return criteria
-
-
 def check_target(task: str, target: str, criteria: dict | None) -> None:
     """AgileError naming the field for a target the task cannot be judged by."""
     from agile.tasks.catalogue import catalogue, task_entry
