@@ -180,7 +180,7 @@ def test_a_checkpoint_of_the_sync_free_update_resumes_in_either():
 def test_setting_the_learning_rate_reaches_the_optimizer(update):
     """What the critic warm-up does before and after its iterations: the update's learning rate, kept where the
     update adapts it (a float, or the sync-free update's device tensor, written in place)."""
-    from agile.run.train import set_learning_rate
+    from agile.run.training_iterations import set_learning_rate
 
     algorithm = make_algorithm(update, 0.01)
     set_learning_rate(algorithm, 3.0e-4)
