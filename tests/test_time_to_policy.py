@@ -10,7 +10,7 @@ import torch
 from commands import FLAT_GROUND_ARGS
 
 from agile.run.recipes import RECIPES
-from agile.run.time_to_policy import main
+from agile.run.time_to_policy import main, run_until_criteria, time_to_policy_options
 
 
 @pytest.mark.slow
@@ -92,12 +92,22 @@ def test_seeds_run_one_after_another_evaluated_after_the_training_and_summarised
     newest = runs[1]["newest_checkpoint"]
     recorded = torch.load(newest, weights_only=True)["infos"]["wall_s"]
     assert newest.endswith("model_2.pt") and 0 < recorded < 300
-    assert main(["--seed", "4", "--max_iterations", "1", "--resume", newest, "--out", str(tmp_path / "resumed"),
-                 *common]) == 0, capsys.readouterr()
-    resumed = json.loads((tmp_path / "resumed.json").read_text())
+    # the resumed run reports its record as it goes (what <out>.json holds meanwhile): at each new checkpoint while
+    # it trains, after each evaluation after it
+    options, _ = time_to_policy_options(task="Velocity-T1-v0", budget_s=300, seed=4, num_envs=2, device="cpu",
+                                        max_iterations=1, save_interval=1, eval_num_envs=2, eval_episode_length_s=0.2,
+                                        evaluate_after_training=True, criteria={"fall_rate": 1.0}, resume=newest,
+                                        recipe="fast", overrides=("agent.num_steps_per_env=2", *FLAT_GROUND_ARGS))
+    reports = []
+    (tmp_path / "resumed_runs").mkdir()
+    resumed = run_until_criteria(options, str(tmp_path / "resumed_runs"), tmp_path / "resumed.log",
+                                 report=lambda r: reports.append(json.loads(json.dumps(r))))
     assert resumed["resumed_from"] == newest and resumed["wall_s_before"] == recorded
     (row,) = resumed["evaluations"]
     assert row["iteration"] == 3 and row["wall_s"] > recorded  # the resumed run's own checkpoint, timed on
+    assert resumed["status"] == "finished" and reports[-1]["status"] == "evaluating"
+    assert reports[-1]["evaluations"] == [row] and {r["status"] for r in reports[:-1]} <= {"training"}
+    assert all(r["evaluations"] == [] for r in reports[:-1])
 
 
 def test_the_seed_summary_counts_a_miss_as_its_budget():

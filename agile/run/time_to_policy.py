@@ -43,7 +43,8 @@ from pathlib import Path
 from agile.run.arguments import command
 from agile.run import arguments, task_setup
 from agile.errors import AgileError
-from agile.run.time_to_policy_judge import TARGETS, CheckpointJudge, check_target, criteria_of
+from agile.run.time_to_policy_judge import (TARGETS, CheckpointJudge, all_checkpoints, check_target, criteria_of,
+                                            newest_checkpoint, recorded_wall_s)
 from agile.run.time_to_policy_plots import outcome, plot, seed_name
 
 FIRST_ITERATION_MARK = "Learning iteration"
@@ -90,17 +91,6 @@ def training_command(options: TimeToPolicyOptions, log_root: str) -> list[str]:
     return [sys.executable, "-m", "agile.run.train", *train_args, "--device", options.device]
 
 
-def all_checkpoints(log_root: str) -> list[tuple[int, Path]]:
-    """(iteration, path) of every model_<it>.pt of the run under log_root, in order."""
-    return sorted((int(p.stem.split("_")[1]), p) for p in Path(log_root).glob("*/*/model_*.pt"))
-
-
-def newest_checkpoint(log_root: str) -> tuple[int, Path] | None:
-    """(iteration, path) of the newest model_<it>.pt of the run under log_root, or None."""
-    found = all_checkpoints(log_root)
-    return found[-1] if found else None
-
-
 def wait_for_first_iteration(log_path: Path, process, start: float, budget_s: float) -> float | None:
     """Seconds from the start to the training's first logged iteration (None: it ended or the budget ran out)."""
     while time.monotonic() - start < budget_s and process.poll() is None:
@@ -110,9 +100,11 @@ def wait_for_first_iteration(log_path: Path, process, start: float, budget_s: fl
     return None
 
 
-def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Path) -> dict:
+def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Path, report=None) -> dict:
     """Train in a child process (its output in `log_path`, its run under `log_root`) until a checkpoint meets the
-    criteria or the budget is spent; the run's result (what <out>.json holds, less the device and commit)."""
+    criteria or the budget is spent; the run's result (what <out>.json holds, less the device and commit).
+    `report(result)`, where given, receives the result so far at every new checkpoint ("status" "training") and
+    after every evaluation ("evaluating"), so that a run cut off (a machine taken away) leaves a record of it."""
     criteria, minima = criteria_of(options.task, options.target, options.criteria)
     wall_s_before = 0.0 if options.resume is None else recorded_wall_s(options.resume)
     start, start_epoch = time.monotonic(), time.time()
@@ -122,47 +114,53 @@ def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Pa
     first_iteration_s = wait_for_first_iteration(log_path, process, start, options.budget_s)
     judge = CheckpointJudge(options, criteria, minima, options.eval_device or options.device, start_epoch,
                             wall_s_before)
+
+    def result(met_at: dict | None, status: str) -> dict:
+        return {"task": options.task, "seed": options.seed, "gpus": options.gpus,
+                "num_envs_per_gpu": options.num_envs, "budget_s": options.budget_s,
+                "recipe": options.recipe, "overrides": list(options.overrides),  # the recipe's first, then the given
+                "evaluated": ("after the training" if options.evaluate_after_training
+                              else f"beside it, on {judge.device}"),
+                "target": options.target, "criteria": criteria, "minima": minima,
+                "resumed_from": options.resume, "wall_s_before": wall_s_before, "status": status,
+                "first_iteration_s": None if first_iteration_s is None else round(first_iteration_s, 1),
+                "time_to_policy_s": met_at["wall_s"] if met_at else None,
+                "iteration_at_criteria": met_at["iteration"] if met_at else None, "evaluations": judge.rows}
+
+    def progress(status: str) -> None:
+        if report is not None:
+            report(result(None, status))
+
     met_at = None
     try:
         if options.evaluate_after_training:
+            reported = None
             while time.monotonic() - start < options.budget_s and process.poll() is None:
+                newest = newest_checkpoint(log_root)
+                if newest is not None and newest[0] != reported:
+                    reported = newest[0]
+                    progress("training")
                 time.sleep(1.0)
         else:
-            met_at = judge_as_they_come(options, judge, process, start, log_root)
+            met_at = judge_as_they_come(options, judge, process, start, log_root, progress)
     finally:
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGTERM)
             process.wait(timeout=60)
     if options.evaluate_after_training:
         for iteration, path in all_checkpoints(log_root):
-            if judge(iteration, path)["met"]:
-                met_at = judge.rows[-1]
+            row = judge(iteration, path)
+            progress("evaluating")
+            if row["met"]:
+                met_at = row
                 break
-    return {"task": options.task, "seed": options.seed, "gpus": options.gpus, "num_envs_per_gpu": options.num_envs,
-            "budget_s": options.budget_s,
-            "recipe": options.recipe, "overrides": list(options.overrides),  # the recipe's first, then the given ones
-            "evaluated": "after the training" if options.evaluate_after_training else f"beside it, on {judge.device}",
-            "target": options.target, "criteria": criteria, "minima": minima,
-            "resumed_from": options.resume, "wall_s_before": wall_s_before,
-            "first_iteration_s": None if first_iteration_s is None else round(first_iteration_s, 1),
-            "time_to_policy_s": met_at["wall_s"] if met_at else None,
-            "iteration_at_criteria": met_at["iteration"] if met_at else None, "evaluations": judge.rows}
-
-
-def recorded_wall_s(checkpoint: str) -> float:
-    """The training wall time a checkpoint records (`infos["wall_s"]`); AgileError where it records none."""
-    from agile.rl.checkpoints import load_checkpoint
-
-    wall_s = (load_checkpoint(checkpoint).get("infos") or {}).get("wall_s")
-    if wall_s is None:
-        raise AgileError(f"resume: {checkpoint} records no training wall time (infos['wall_s']; an older "
-                         f"agile train wrote none): the time to policy cannot count on from it")
-    return float(wall_s)
+    return result(met_at, "finished")
 
 
 def judge_as_they_come(options: TimeToPolicyOptions, judge: CheckpointJudge, process, start: float,
-                       log_root: str) -> dict | None:
-    """Evaluate the newest checkpoint whenever a new one appears; the row of the first that meets the criteria."""
+                       log_root: str, progress) -> dict | None:
+    """Evaluate the newest checkpoint whenever a new one appears (`progress("training")` after each that misses);
+    the row of the first that meets the criteria."""
     evaluated = -1
     while time.monotonic() - start < options.budget_s:
         newest = newest_checkpoint(log_root)
@@ -176,6 +174,7 @@ def judge_as_they_come(options: TimeToPolicyOptions, judge: CheckpointJudge, pro
         evaluated = iteration
         if judge(iteration, path)["met"]:
             return judge.rows[-1]
+        progress("training")
     return None
 
 
@@ -284,13 +283,18 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
         run_options = dataclasses.replace(options, seed=run_seed)
         run_out = out if seeds is None else f"{out}_seed{run_seed}"
         with kept_or_temporary(log_root, None if seeds is None else f"seed{run_seed}") as run_root:
-            result = run_until_criteria(run_options, run_root, Path(f"{run_out}.log"))
-            newest = newest_checkpoint(run_root)
-        result.update(device=options.device, commit=commit)
-        if log_root is not None and newest is not None:
-            result["newest_checkpoint"] = str(newest[1])
-            print(f"[agile] the run's newest checkpoint: {newest[1]} (resume to continue it)", flush=True)
-        Path(f"{run_out}.json").write_text(json.dumps(result, indent=2))
+            def write(result: dict, run_root=run_root, run_out=run_out) -> None:
+                result.update(device=options.device, commit=commit)
+                newest = newest_checkpoint(run_root)
+                if log_root is not None and newest is not None:
+                    result["newest_checkpoint"] = str(newest[1])
+                Path(f"{run_out}.json").write_text(json.dumps(result, indent=2))
+
+            result = run_until_criteria(run_options, run_root, Path(f"{run_out}.log"), report=write)
+            write(result)
+        if "newest_checkpoint" in result:
+            print(f"[agile] the run's newest checkpoint: {result['newest_checkpoint']} (resume to continue it)",
+                  flush=True)
         met = result["time_to_policy_s"]
         print(f"[agile] {task}, {seed_name(run_seed)}: " + (
             f"criteria met at {met} s (iteration {result['iteration_at_criteria']})" if met is not None

@@ -16,6 +16,28 @@ ALL_ROWS_OVERRIDE = "env.scene.max_init_terrain_level=null"
 """Spawns over every terrain row (the registered start rows are the first ones)."""
 
 
+def all_checkpoints(log_root: str) -> list[tuple[int, Path]]:
+    """(iteration, path) of every model_<it>.pt of the run under log_root, in order."""
+    return sorted((int(p.stem.split("_")[1]), p) for p in Path(log_root).glob("*/*/model_*.pt"))
+
+
+def newest_checkpoint(log_root: str) -> tuple[int, Path] | None:
+    """(iteration, path) of the newest model_<it>.pt of the run under log_root, or None."""
+    found = all_checkpoints(log_root)
+    return found[-1] if found else None
+
+
+def recorded_wall_s(checkpoint: str) -> float:
+    """The training wall time a checkpoint records (`infos["wall_s"]`); AgileError where it records none."""
+    from agile.rl.checkpoints import load_checkpoint
+
+    wall_s = (load_checkpoint(checkpoint).get("infos") or {}).get("wall_s")
+    if wall_s is None:
+        raise AgileError(f"resume: {checkpoint} records no training wall time (infos['wall_s']; an older "
+                         f"agile train wrote none): the time to policy cannot count on from it")
+    return float(wall_s)
+
+
 def evaluator(task: str, overrides: list[str], device: str, num_envs: int | None = None,
               episode_length_s: float | None = None, seed: int | None = None, eval_overrides=()):
     """A function (checkpoint path -> eval.py's metrics) over one env in the task's evaluation setting (the catalogue's
