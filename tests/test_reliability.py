@@ -111,6 +111,32 @@ def test_training_state_round_trip_restores_the_step_counter_terrain_levels_and_
     assert restored.num_successes.tolist() == [3, 1] and restored.num_failures.tolist() == [0, 7]
 
 
+def test_a_training_state_of_another_env_count_is_spread_by_terrain_column(capsys):
+    """A training moved to more or fewer envs (another GPU, more GPUs) keeps its climb: each env takes the terrain
+    level and the curriculum counts of one of the checkpoint's envs on its own column (env i is on column i % 2
+    here); a checkpoint with fewer envs than columns is refused."""
+    overrides = ["scene.terrain.num_rows=4", "scene.terrain.num_cols=2", "scene.terrain.size_m=4.0",
+                 "scene.terrain.border_width_m=1.0"]
+    first = gym.make("Velocity-T1-v0", num_envs=4, device="cpu", overrides=overrides).unwrapped
+    first.sim.set_terrain_levels(torch.tensor([0, 1, 2, 3]))
+    outcomes = first.curriculum_manager.funcs["terrain_levels"].outcomes
+    outcomes.num_successes.copy_(torch.tensor([1, 2, 3, 0]))
+    state = first.training_state()
+    more = gym.make("Velocity-T1-v0", num_envs=6, device="cpu", overrides=overrides).unwrapped
+    more.load_training_state(state)
+    # column 0: the checkpoint's envs 0 and 2, in turn; column 1: its envs 1 and 3
+    assert more.sim.terrain_levels.tolist() == [0, 1, 2, 3, 0, 1]
+    assert more.curriculum_manager.funcs["terrain_levels"].outcomes.num_successes.tolist() == [1, 2, 3, 0, 1, 2]
+    assert more.sim.terrain_types.tolist() == [0, 1, 0, 1, 0, 1]
+    assert "the checkpoint's training state is of 4 envs, this env has 6" in capsys.readouterr().out
+    fewer = gym.make("Velocity-T1-v0", num_envs=2, device="cpu", overrides=overrides).unwrapped
+    fewer.load_training_state(state)
+    assert fewer.sim.terrain_levels.tolist() == [0, 1]
+    one = gym.make("Velocity-T1-v0", num_envs=1, device="cpu", overrides=overrides).unwrapped
+    with pytest.raises(ValueError, match="1 envs do not cover the terrain's 2 columns"):
+        more.load_training_state(one.training_state())
+
+
 def test_training_state_round_trip_restores_adaptive_curricula(capsys):
     """An adaptive curriculum's state (here the pushing curriculum's push scale; the stand-up lift's strength the
     same way) comes back on resume, in place: the push event reads the very tensor the curriculum writes."""

@@ -312,17 +312,24 @@ class ManagerBasedRLEnv(gym.Env):
         return state
 
     def load_training_state(self, state: dict[str, torch.Tensor]) -> None:
-        """Restore `training_state()` and reset every env (robots spawn at their restored terrain levels)."""
+        """Restore `training_state()` and reset every env (robots spawn at their restored terrain levels). A state of
+        another env count (a training moved to more or fewer envs, or GPUs) is spread over this env's: each env takes
+        the terrain level and the curriculum counts of one of the state's envs on its own terrain column."""
         self.common_step_counter.fill_(int(state["common_step_counter"]))
         levels = state.get("terrain_levels")
+        source_envs = None
         if levels is not None and self.sim.terrain is not None:
-            if levels.shape != self.sim.terrain_levels.shape:
-                raise ValueError(f"the checkpoint holds terrain levels of {levels.shape[0]} envs, this env has "
-                                 f"{self.num_envs}")
+            if levels.shape[0] != self.num_envs:
+                source_envs = self.sim.same_column_envs(levels.shape[0]).cpu()
+                print(f"[agile] the checkpoint's training state is of {levels.shape[0]} envs, this env has "
+                      f"{self.num_envs}: each env takes the terrain level and curriculum counts of one of the "
+                      f"checkpoint's envs on its terrain column")
+                levels = levels[source_envs]
             self.sim.set_terrain_levels(levels.to(self.device))
         curriculum = {key[len(CURRICULUM_STATE_PREFIX):]: value for key, value in state.items()
                       if key.startswith(CURRICULUM_STATE_PREFIX)}
-        missing = self.curriculum_manager.load_training_state(curriculum)
+        resized = None if source_envs is None else (state["terrain_levels"].shape[0], source_envs)
+        missing = self.curriculum_manager.load_training_state(curriculum, resized=resized)
         if missing:
             print(f"[agile] the checkpoint holds no state for {missing}: those curriculum terms start afresh")
         self.reset()

@@ -343,6 +343,19 @@ class Simulation:
         self.terrain_levels.copy_(levels.clamp(0, self.max_terrain_level - 1))
         self.env_origins.copy_(self.terrain_origins_m[self.terrain_levels, self.terrain_types])
 
+    def same_column_envs(self, other_num_envs: int) -> torch.Tensor:
+        """(N,) for each env of this world, an env of a world of `other_num_envs` envs on the same terrain column
+        (env i is on column i % num_cols in both): env i takes its column's (i // num_cols)-th env there, cycling
+        through them where that world has fewer. The identity for as many envs. Raises ValueError where that world
+        leaves a column without an env."""
+        num_cols = self.terrain_origins_m.shape[1]
+        if other_num_envs < num_cols:
+            raise ValueError(f"{other_num_envs} envs do not cover the terrain's {num_cols} columns")
+        env_ids = torch.arange(self.num_envs, device=self.device)
+        column = env_ids % num_cols
+        envs_on_column = (other_num_envs - column + num_cols - 1) // num_cols  # column c: envs c, c + C, ... there
+        return column + num_cols * ((env_ids // num_cols) % envs_on_column)
+
     def set_terrain_cells(self, levels: torch.Tensor, types: torch.Tensor, mask: torch.Tensor) -> None:
         """Put the envs of `mask` (N,) on the cells (row `levels`, column `types`, both (N,)) and update
         `env_origins` there; masked tensor math only (a reset from a state stored with its cell)."""

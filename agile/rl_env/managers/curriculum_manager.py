@@ -32,11 +32,12 @@ class CurriculumManager:
         return {f"{name}.{attr}": _attribute(func, attr).detach().cpu().clone()
                 for name, func in self.funcs.items() for attr in getattr(func, "training_state_attrs", ())}
 
-    def load_training_state(self, state: dict[str, torch.Tensor]) -> list[str]:
+    def load_training_state(self, state: dict[str, torch.Tensor], resized=None) -> list[str]:
         """Copy `training_state()` entries back into the terms, in place (others hold references to them, e.g.
-        the push event to pushing_curriculum's scale). Returns the entries this env expected and the state lacked
-        (a checkpoint from before a term existed: that term starts afresh); entries for terms this env does not
-        have are an error."""
+        the push event to pushing_curriculum's scale). `resized`: (the state's env count, (N,) the state's env each
+        of this env's takes) where the state is of another env count, so that per-env entries are taken row by row.
+        Returns the entries this env expected and the state lacked (a checkpoint from before a term existed: that
+        term starts afresh); entries for terms this env does not have are an error."""
         expected = self.training_state()
         unknown = sorted(set(state) - set(expected))
         if unknown:
@@ -45,6 +46,8 @@ class CurriculumManager:
         for key, value in state.items():
             name, attr = key.split(".", 1)
             target = _attribute(self.funcs[name], attr)
+            if resized is not None and value.dim() > 0 and value.shape[0] == resized[0] != target.shape[0]:
+                value = value[resized[1]]  # a per-env entry
             if value.shape != target.shape:
                 raise ValueError(f"curriculum state '{key}': checkpoint shape {tuple(value.shape)}, this env "
                                  f"{tuple(target.shape)} (a different num_envs?)")
