@@ -4,8 +4,8 @@
     agile show Velocity-T1-v0                    # the resolved MDP (builds the env on CPU with 1 env)
     agile diff Velocity-T1-v0 Velocity-G1-History-v0   # the config paths whose values differ
     agile robot check path/to/robot.xml          # a robot model file's joints, bodies, actuators, problems
-    agile train --task Velocity-T1-v0 ...        # train|play|eval|eval_all|export|benchmark|sim2mujoco|
-                                                 # plot_learning_curve|time_to_policy|pick_checkpoint|
+    agile train --task Velocity-T1-v0 ...        # train|play|eval|eval_all|export|benchmark|gpu_scaling|
+                                                 # sim2mujoco|plot_learning_curve|time_to_policy|pick_checkpoint|
                                                  # record|fingerprint|deploy|sim_robot|robot:
                                                  # agile/run/<name>.py, in this process
 
@@ -23,8 +23,9 @@ import yaml
 from agile.errors import AgileError
 from agile.run.arguments import command
 
-FORWARDED = ("train", "play", "eval", "eval_all", "export", "benchmark", "sim2mujoco", "plot_learning_curve",
-             "time_to_policy", "pick_checkpoint", "record", "fingerprint", "deploy", "sim_robot", "robot")
+FORWARDED = ("train", "play", "eval", "eval_all", "export", "benchmark", "gpu_scaling", "sim2mujoco",
+             "plot_learning_curve", "time_to_policy", "pick_checkpoint", "record", "fingerprint", "deploy", "sim_robot",
+             "robot")
 """Subcommands that run `agile.run.<name>.main` with the arguments that follow."""
 
 
