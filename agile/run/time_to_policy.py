@@ -288,7 +288,9 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
                 newest = newest_checkpoint(run_root)
                 if log_root is not None and newest is not None:
                     result["newest_checkpoint"] = str(newest[1])
-                Path(f"{run_out}.json").write_text(json.dumps(result, indent=2))
+                partial = Path(f"{run_out}.json.tmp")  # renamed whole: a run cut off mid-write leaves the last one
+                partial.write_text(json.dumps(result, indent=2))
+                partial.replace(f"{run_out}.json")
 
             result = run_until_criteria(run_options, run_root, Path(f"{run_out}.log"), report=write)
             write(result)
