@@ -58,8 +58,9 @@ def measured_training(log_root: str) -> dict:
     """From a finished run under `log_root`: its seconds per iteration between the first checkpoint past the first
     third of the run and the last one (the env build, kernel compilation and first iterations left out), the env
     steps per iteration of one GPU (its agent.yaml), the all-reduces its update makes, and the gradients' size."""
-    import torch
     import yaml
+
+    from agile.rl.checkpoints import load_checkpoint
 
     checkpoints = all_checkpoints(log_root)
     last_iteration = checkpoints[-1][0] if checkpoints else 0
@@ -68,9 +69,9 @@ def measured_training(log_root: str) -> dict:
         raise AgileError(f"{log_root}: fewer than two checkpoints to time from (more --iterations, or a smaller "
                          f"--save_interval)")
     (first_it, first), (last_it, last) = timed[0], timed[-1]
-    walls = [torch.load(path, map_location="cpu", weights_only=False)["infos"]["wall_s"] for path in (first, last)]
+    walls = [load_checkpoint(str(path))["infos"]["wall_s"] for path in (first, last)]
     agent = yaml.safe_load((last.parent / "params" / "agent.yaml").read_text())
-    saved = torch.load(last, map_location="cpu", weights_only=False)
+    saved = load_checkpoint(str(last))
     gradient_floats = sum(value.numel() for key in ("actor_state_dict", "critic_state_dict")
                           for name, value in saved[key].items() if not name.startswith("obs_normalizer"))
     return {"timed_iterations": [first_it, last_it], "iteration_s": (walls[1] - walls[0]) / (last_it - first_it),
