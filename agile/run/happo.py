@@ -47,7 +47,8 @@ def train(options):
     """`agile.run.train.train` with `options.trainer` "happo" (the task checked by `check_trainer`): a new run, its
     checkpoints in <log_root>/<experiment>/<time>_<run>/; a `TrainResult`."""
     from agile.run.multi_agent import make_world
-    from agile.run.train import TrainResult, run_configs
+    from agile.run.train import run_configs
+    from agile.run.train_options import TrainResult
 
     started_at = time.time()  # the checkpoints' wall time counts the world build and the kernel compilation
     env_cfg, cfg, device = run_configs(options)

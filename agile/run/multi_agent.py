@@ -69,7 +69,8 @@ def train_multi_agent(options, rank):
     """`agile.run.train.train` for a multi-agent task (`options`: its `TrainOptions`): every agent group trained, its
     policy exported; a `TrainResult`."""
     from agile.marl.runner import MultiAgentRunner
-    from agile.run.train import TrainResult, run_configs
+    from agile.run.train import run_configs
+    from agile.run.train_options import TrainResult
     from agile.rl.checkpoints import restore_runner
     from agile.rl.progress import show_progress
     from agile.rl.rsl_rl_adapter import set_git_status_repos

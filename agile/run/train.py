@@ -29,10 +29,10 @@ from agile.run import arguments, task_setup
 from agile.errors import AgileError
 
 from agile.run.task_kinds import run_command
+from agile.run.train_options import DEFAULT_LOG_ROOT, TrainOptions, TrainResult
 from agile.run.training_iterations import learn
 from agile.run.training_start import check_rank_weights, distributed_rank, restore_start, starting_point
 
-DEFAULT_LOG_ROOT = os.path.join("logs", "rsl_rl")
 PROGRESS_MODES = ("auto", "bar", "log")
 """`agile.rl.progress.PROGRESS_MODES`, named here so that --help does not import the simulator."""
 LOGGERS = ("tensorboard", "wandb", "neptune")
@@ -41,45 +41,6 @@ TRAINERS = ("rsl_rl", "happo")
 (`agile.marl.harl`, the extra agile[harl])."""
 MANY_CPU_ENVS = 256
 """Above this env count a CPU training is told that it is slow and how to make it fast."""
-
-
-@dataclasses.dataclass(frozen=True)
-class TrainOptions:
-    """Everything a training run is started with (`train`'s keyword arguments; see them for each field)."""
-    task: str
-    num_envs: int | None = None
-    device: str | None = None
-    seed: int | None = None
-    rnn: str | None = None
-    overrides: tuple = ()
-    max_iterations: int | None = None
-    resume: bool = False
-    checkpoint: str | None = None
-    init_policy: tuple = ()
-    init_action_std: float | None = None
-    logger: str | None = None
-    run_name: str | None = None
-    log_root: str = DEFAULT_LOG_ROOT
-    video: bool = False
-    video_interval: int = 500
-    video_length: int = 200
-    inject_nan_actions: tuple | None = None
-    progress: str = "auto"
-    full_log_every: int = 100
-    teacher: str | None = None
-    distributed: bool = False
-    trust_checkpoint: bool = False
-    collect_datasets_anew: bool = False
-    trainer: str = "rsl_rl"
-
-
-@dataclasses.dataclass(frozen=True)
-class TrainResult:
-    """What a training run leaves: its folder (None on a distributed run's other ranks), the last checkpoint and the
-    exported policy files ({kind: path}; a multi-agent run: {"groups": the folder of a subfolder per group})."""
-    log_dir: str | None
-    checkpoint: str | None
-    exported: dict
 
 
 def train(*, task: str, num_envs: int | None = None, device: str | None = None, seed: int | None = None,

@@ -4,12 +4,9 @@ chunks with a video clip after each where asked (`learn`)."""
 from __future__ import annotations
 
 import os
-from typing import TYPE_CHECKING
 
 from agile.run import task_setup
-
-if TYPE_CHECKING:
-    from agile.run.train import TrainOptions
+from agile.run.train_options import TrainOptions
 
 
 def set_learning_rate(algorithm, learning_rate: float) -> None:

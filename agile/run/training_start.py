@@ -5,13 +5,10 @@ from __future__ import annotations
 
 import math
 import os
-import typing
 
 from agile.errors import AgileError
 from agile.run import task_setup
-
-if typing.TYPE_CHECKING:
-    from agile.run.train import TrainOptions
+from agile.run.train_options import TrainOptions
 
 
 def distributed_rank(options: TrainOptions):
