@@ -98,6 +98,8 @@ def gpu_scaling(*, task: str, gpus, num_envs: int, out: str, iterations: int = 6
                                                                                   "allreduce_repeats", 1)):
         if value < minimum:
             raise AgileError(f"{field} must be at least {minimum}, got {value}")
+    if not timeout_s > 0:
+        raise AgileError(f"timeout_s must be positive, got {timeout_s}")
     if recipe is not None and recipe not in RECIPES:
         raise AgileError(f"recipe must be one of {', '.join(sorted(RECIPES))} (or None), got {recipe!r}")
     if device not in (None, "cpu"):
