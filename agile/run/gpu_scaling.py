@@ -21,26 +21,14 @@ from agile.errors import AgileError
 from agile.run import arguments, task_setup
 from agile.run.arguments import command
 from agile.run.time_to_policy_judge import all_checkpoints
+from agile.run.train_options import torchrun_command, training_command
 
 
-def training_command(*, task: str, gpus: int, num_envs: int, iterations: int, save_interval: int, log_root: str,
-                     device: str, overrides=()) -> list[str]:
-    """`agile train` on one device, or torchrun over `gpus` GPUs (CPU ranks where `device` is "cpu")."""
-    train = ["-m", "agile.run.train", "--task", task, "--num_envs", str(num_envs), "--max_iterations",
-             str(iterations), "--log_root", log_root, "--progress", "log", f"agent.save_interval={save_interval}",
-             *overrides]
-    if gpus == 1:
-        return [sys.executable, *train, "--device", device]
-    cpu_ranks = ["--device", "cpu"] if device == "cpu" else []
-    return [sys.executable, "-m", "torch.distributed.run", "--standalone", f"--nproc_per_node={gpus}", *train,
-            "--distributed", *cpu_ranks]
-
-
-def allreduce_command(*, gpus: int, floats: int, repeats: int, device: str, out: str) -> list[str]:
-    cpu_ranks = ["--device", "cpu"] if device == "cpu" else []
-    return [sys.executable, "-m", "torch.distributed.run", "--standalone", f"--nproc_per_node={gpus}", "-m",
-            "agile.run.allreduce_timing", "--floats", str(floats), "--repeats", str(repeats), "--out", out,
-            *cpu_ranks]
+def scaling_training_args(*, task: str, num_envs: int, iterations: int, save_interval: int, log_root: str,
+                          overrides=()) -> list[str]:
+    """`agile train`'s arguments of one timed training."""
+    return ["--task", task, "--num_envs", str(num_envs), "--max_iterations", str(iterations), "--log_root", log_root,
+            "--progress", "log", f"agent.save_interval={save_interval}", *overrides]
 
 
 def run_logged(cmd: list[str], log_path: Path, timeout_s: float, what: str) -> None:
@@ -119,16 +107,17 @@ def gpu_scaling(*, task: str, gpus, num_envs: int, out: str, iterations: int = 6
         with tempfile.TemporaryDirectory(prefix="agile_gpu_scaling_") as log_root:
             print(f"[agile] {task} on {count} {'CPU rank' if device == 'cpu' else 'GPU'}(s), {num_envs} envs each, "
                   f"{iterations} iterations", flush=True)
-            run_logged(training_command(task=task, gpus=count, num_envs=num_envs, iterations=iterations,
-                                        save_interval=save_interval, log_root=log_root, device=device,
-                                        overrides=overrides), Path(f"{out}_gpus{count}.log"), timeout_s,
+            train_args = scaling_training_args(task=task, num_envs=num_envs, iterations=iterations,
+                                               save_interval=save_interval, log_root=log_root, overrides=overrides)
+            run_logged(training_command(train_args, count, device), Path(f"{out}_gpus{count}.log"), timeout_s,
                        f"the training on {count}")
             row = {"gpus": count, **measured_training(log_root)}
             if count > 1:
                 timing = Path(log_root) / "allreduce.json"
-                run_logged(allreduce_command(gpus=count, floats=row["gradient_floats"], repeats=allreduce_repeats,
-                                             device=device, out=str(timing)), Path(f"{out}_allreduce{count}.log"),
-                           timeout_s, f"the all-reduce timing on {count}")
+                allreduce_args = ["--floats", str(row["gradient_floats"]), "--repeats", str(allreduce_repeats),
+                                  "--out", str(timing), *(["--device", "cpu"] if device == "cpu" else [])]
+                run_logged(torchrun_command("agile.run.allreduce_timing", allreduce_args, count),
+                           Path(f"{out}_allreduce{count}.log"), timeout_s, f"the all-reduce timing on {count}")
                 row["allreduce_s"] = json.loads(timing.read_text())["median_s"]
                 row["allreduce_share"] = row["allreduce_s"] * row["allreduces_per_iteration"] / row["iteration_s"]
         row["env_steps_per_s"] = count * num_envs * row["steps_per_env"] / row["iteration_s"]

@@ -41,7 +41,7 @@ import time
 from pathlib import Path
 
 from agile.run.arguments import command
-from agile.run import arguments, task_setup
+from agile.run import arguments, task_setup, train_options
 from agile.errors import AgileError
 from agile.run.time_to_policy_judge import (TARGETS, CheckpointJudge, all_checkpoints, check_target, criteria_of,
                                             newest_checkpoint, recorded_wall_s)
@@ -84,11 +84,7 @@ def training_command(options: TimeToPolicyOptions, log_root: str) -> list[str]:
         train_args += ["--seed", str(options.seed)]
     if options.resume is not None:
         train_args += ["--resume", "--checkpoint", options.resume]
-    if options.gpus > 1:  # ranks on the host's first GPUs, or on the CPU (gloo) where the run is on the CPU
-        cpu_ranks = ["--device", "cpu"] if options.device == "cpu" else []
-        return [sys.executable, "-m", "torch.distributed.run", "--standalone", f"--nproc_per_node={options.gpus}",
-                "-m", "agile.run.train", *train_args, "--distributed", *cpu_ranks]
-    return [sys.executable, "-m", "agile.run.train", *train_args, "--device", options.device]
+    return train_options.training_command(train_args, options.gpus, options.device)
 
 
 def wait_for_first_iteration(log_path: Path, process, start: float, budget_s: float) -> float | None:

@@ -1,10 +1,13 @@
 """What an `agile train` run is started with (`TrainOptions`) and what it leaves (`TrainResult`), apart from the
-command so that the modules that start and run a training read them without importing it."""
+command so that the modules that start and run a training read them without importing it; and the command lines
+that start a training (or another module) as processes of their own, one or several ranks (`training_command`,
+`torchrun_command`), for the commands that time trainings."""
 
 from __future__ import annotations
 
 import dataclasses
 import os
+import sys
 
 DEFAULT_LOG_ROOT = os.path.join("logs", "rsl_rl")
 
@@ -46,3 +49,18 @@ class TrainResult:
     log_dir: str | None
     checkpoint: str | None
     exported: dict
+
+
+def torchrun_command(module: str, args: list[str], ranks: int) -> list[str]:
+    """`python -m module args` as `ranks` processes of this host (torchrun, standalone rendezvous)."""
+    return [sys.executable, "-m", "torch.distributed.run", "--standalone", f"--nproc_per_node={ranks}", "-m", module,
+            *args]
+
+
+def training_command(train_args: list[str], gpus: int, device: str) -> list[str]:
+    """`agile train train_args` as a process of its own: on `device`, or as `gpus` ranks under torchrun on the host's
+    first GPUs (CPU ranks on gloo where `device` is "cpu")."""
+    if gpus == 1:
+        return [sys.executable, "-m", "agile.run.train", *train_args, "--device", device]
+    cpu_ranks = ["--device", "cpu"] if device == "cpu" else []
+    return torchrun_command("agile.run.train", [*train_args, "--distributed", *cpu_ranks], gpus)
