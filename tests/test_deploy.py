@@ -1,7 +1,7 @@
 """agile deploy's parts without a real-time loop: the state machine's transitions and faults, each mode's command,
-the G1 remote, the bundle and input checks of the command line (one line, exit 2, before DDS starts), the T1's
+the bundle and input checks of the command line (one line, exit 2, before DDS starts), the T1's
 conversion up to the SDK call, and the simulator's motor drivers. The loop against the DDS simulator:
-tests/test_deploy_realtime.py (-m realtime)."""
+tests/test_deploy_realtime.py (-m realtime); the commands and the G1 remote: tests/test_deploy_commands.py."""
 
 from __future__ import annotations
 
@@ -15,26 +15,15 @@ import numpy as np
 import pytest
 import yaml
 
-from agile.deploy.controller import Controller, Signals
-from agile.deploy.policy import RobotState, quat_from_rpy
+from deploy_fakes import N, FakeLink, controller, machine, state
+
+from agile.deploy.policy import quat_from_rpy
 from agile.deploy.robots import ROBOTS, DeployError, read_deploy_bundle
-from agile.deploy.safety import Mode, SafetyLimits, SafetyStateMachine
+from agile.deploy.safety import Mode
 
 REPO = Path(__file__).resolve().parents[1]
 T1_BUNDLE = REPO / "docs/results/leapp/Velocity-T1-v0.yaml"
 G1_BUNDLE_YAML = REPO / "docs/results/leapp/Velocity-Height-G1-Student-Recurrent-v0.yaml"
-N = 29
-LOWER, UPPER = np.full(N, -1.0), np.full(N, 1.0)
-
-
-def state(now_s=0.0, tick=0, q=None, quat=(1.0, 0.0, 0.0, 0.0)) -> RobotState:
-    return RobotState(q=np.zeros(N) if q is None else q, dq=np.zeros(N), tau=np.zeros(N), quat_wxyz=np.array(quat),
-                      gyro_radps=np.zeros(3), tick=tick, received_s=now_s)
-
-
-def machine(autostart=False) -> SafetyStateMachine:
-    return SafetyStateMachine(SafetyLimits(max_state_age_s=0.06, move_duration_s=2.0, autostart_hold_s=1.0),
-                              LOWER, UPPER, autostart=autostart)
 
 
 def test_start_signals_walk_the_modes_in_order_and_damping_is_final():
@@ -133,29 +122,6 @@ def test_a_joint_past_its_limits_damps_in_the_policy():
     assert m.mode is Mode.DAMPING and "joint 3" in m.fault
 
 
-class FakePolicy:
-    """DeployPolicy's interface with a chosen output."""
-
-    def __init__(self, output):
-        self.default_q = np.full(N, 0.5)
-        self.kp = np.full(N, 40.0)
-        self.kd = np.full(N, 2.0)
-        self.output = output
-
-    def reset(self):
-        pass
-
-    def __call__(self, state, command):
-        return self.output.copy(), self.kp, self.kd
-
-
-def controller(output, mode):
-    m = machine()
-    m.mode = mode
-    c = Controller(link=None, policy=FakePolicy(output), machine=m, control_dt_s=0.02,
-                   velocity_limit=np.full(N, 10.0), command_source=lambda s: np.zeros(3), signals=Signals())
-    return c, m
-
 
 def test_each_mode_commands_what_it_should():
     c, m = controller(np.zeros(N), Mode.PASSIVE)
@@ -194,16 +160,6 @@ def test_a_bad_policy_output_damps_and_writes_no_target(bad, cause):
     assert m.mode is Mode.DAMPING and cause in m.fault
     assert all(np.isfinite(v).all() for v in (q, dq, kp, kd, tau))
     assert not kp.any()
-
-
-def test_the_remote_round_trips_and_maps_the_sticks():
-    from agile.deploy.unitree_g1 import Remote
-
-    remote = Remote.parse(bytes(Remote.pack(buttons=("start", "A"), lx=0.5, ly=1.0, rx=-0.25, ry=0.1)))
-    assert remote.buttons == {"start", "A"}
-    assert (remote.lx, remote.ly, remote.rx) == (0.5, 1.0, -0.25)
-    np.testing.assert_allclose(remote.velocity_command(0.5, 0.4, 1.0), [0.5, -0.2, 0.25])
-    assert Remote.parse(bytes(40)).buttons == frozenset()
 
 
 @pytest.fixture
@@ -316,18 +272,6 @@ def test_t1_link_writes_a_command_through_the_sdk_on_loopback():
     link.close()
 
 
-class FakeLink:
-    def __init__(self, state):
-        self.state = state
-        self.written = []
-
-    def latest(self):
-        return self.state
-
-    def write(self, q, dq, kp, kd, tau):
-        self.written.append((q.copy(), kp.copy(), kd.copy()))
-
-
 def test_a_start_from_the_keyboard_moves_from_where_the_joints_are():
     from agile.deploy.controller import LoopResult
 
@@ -411,62 +355,3 @@ def test_bad_policy_and_command_input_is_one_line_and_exit_2(args, message, g1_b
     assert len(lines) == 1 and message in lines[0], result.stderr
 
 
-class Clock:
-    def __init__(self):
-        self.now_s = 0.0
-
-    def __call__(self):
-        return self.now_s
-
-
-def test_the_command_stays_in_the_trained_ranges_and_refuses_what_is_not_finite():
-    from agile.deploy.commands import PolicyCommand, command_ranges, parse_keyboard_line
-
-    commands = {"base_velocity": {"ranges": {"lin_vel_x": [-0.5, 1.0], "lin_vel_y": [-0.5, 0.5],
-                                             "ang_vel_z": [-1.0, 1.0], "base_height_m": [0.4, 0.75]}}}
-    lower, upper = command_ranges(commands, ("lin_vel_x", "lin_vel_y", "ang_vel_z", "base_height"))
-    np.testing.assert_allclose(lower, [-0.5, -0.5, -1.0, 0.4])
-    command = PolicyCommand(initial=np.array([0.0, 0.0, 0.0, 0.72]), lower=lower, upper=upper, clock=Clock())
-    assert command.set(parse_keyboard_line("2.0 0 -3"), "the keyboard")  # clipped, the height kept
-    np.testing.assert_allclose(command(), [1.0, 0.0, -1.0, 0.72])
-    assert command.set([0.3, 0.1, 0.2, 0.1], "the keyboard")
-    np.testing.assert_allclose(command(), [0.3, 0.1, 0.2, 0.4])
-    assert command.clipped == 2
-    assert not command.set([np.nan, 0, 0], "the keyboard") and not command.set([0.1, 0.2], "the keyboard")
-    assert not command.set([0, 0, 0, 0.5, 1], "the keyboard")
-    assert command.refused == 3 and parse_keyboard_line("go") is None and parse_keyboard_line("1 2") is None
-    np.testing.assert_allclose(command(), [0.3, 0.1, 0.2, 0.4])
-    assert [e.text for e in command.events] == ["the keyboard: command 1 0 -1 0.72", "the keyboard: command 0.3 0.1 0.2 0.4"]
-
-
-def test_a_silent_command_topic_leaves_the_robot_standing_until_it_speaks_again():
-    from agile.deploy.commands import PolicyCommand
-
-    clock = Clock()
-    command = PolicyCommand(initial=np.zeros(3), lower=np.full(3, -0.5), upper=np.full(3, 0.5),
-                            stream_timeout_s=0.5, clock=clock)
-    np.testing.assert_allclose(command(), 0.0)  # before the first message: the initial command
-    command.set_velocity_stream(0.4, 0.0, 2.0)
-    np.testing.assert_allclose(command(), [0.4, 0.0, 0.5])
-    command.set_velocity_stream(float("nan"), 0.0, 0.0)  # refused: the last good one holds
-    clock.now_s = 0.4
-    np.testing.assert_allclose(command(), [0.4, 0.0, 0.5])
-    clock.now_s = 0.6
-    np.testing.assert_allclose(command(), 0.0)
-    clock.now_s = 0.7
-    command.set_velocity_stream(-0.2, 0.1, 0.0)
-    np.testing.assert_allclose(command(), [-0.2, 0.1, 0.0])
-    assert [e.text for e in command.events] == ["command topic silent for more than 0.5 s: standing",
-                                                "command topic speaking again"]
-    assert command.summary()["stream_messages"] == 3 and command.refused == 1
-
-
-def test_the_remote_sticks_are_read_per_state_within_the_ranges():
-    from agile.deploy.commands import PolicyCommand
-    from agile.deploy.unitree_g1 import Remote
-
-    command = PolicyCommand(initial=np.zeros(3), lower=np.array([-0.5, -0.5, -1.0]), upper=np.array([1.0, 0.5, 1.0]),
-                            per_state=lambda s: Remote.parse(s.remote).velocity_command(1.0, 0.5, 1.0))
-    s = state()
-    s.remote = bytes(Remote.pack(ly=-1.0, lx=-1.0, rx=0.5))
-    np.testing.assert_allclose(command(s), [-0.5, 0.5, -0.5])
