@@ -317,7 +317,7 @@ def test_multi_agent_evaluation_names_the_term_that_ended_each_fall():
     import dataclasses
     import math
 
-    from agile.run.multi_agent import evaluate, evaluation_cfg
+    from agile.run.multi_agent_world import evaluate, evaluation_cfg
 
     env_cfg, _ = agile.tasks.load_cfgs("Shared-Go1-Velocity-v0")
     env_cfg.agents["go1_a"].terminations = dataclasses.replace(

@@ -85,7 +85,7 @@ def multi_agent_policy(tmp_path_factory):
     weights: what the fingerprint of a multi-agent policy records does not depend on training."""
     import agile.tasks
     from agile.marl.runner import MultiAgentRunner
-    from agile.run.multi_agent import evaluation_cfg, make_world
+    from agile.run.multi_agent_world import evaluation_cfg, make_world
 
     folder = tmp_path_factory.mktemp("policy") / MULTI_AGENT_TASK
     env_cfg, agent_cfg = agile.tasks.load_cfgs(MULTI_AGENT_TASK)

@@ -116,7 +116,7 @@ class HarlWorldView:
 
 
 class AgentPolicyView:
-    """One agent as `agile.run.multi_agent.evaluate` reads a group: its observations, its actions by name."""
+    """One agent as `agile.run.multi_agent_world.evaluate` reads a group: its observations, its actions by name."""
 
     def __init__(self, view: HarlWorldView, name: str):
         self.view, self.agent_names = view, [name]

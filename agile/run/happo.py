@@ -46,7 +46,7 @@ def check_observation_groups(env_cfg, cfg) -> None:
 def train(options):
     """`agile.run.train.train` with `options.trainer` "happo" (the task checked by `check_trainer`): a new run, its
     checkpoints in <log_root>/<experiment>/<time>_<run>/; a `TrainResult`."""
-    from agile.run.multi_agent import make_world
+    from agile.run.multi_agent_world import make_world
     from agile.run.train import run_configs
     from agile.run.train_options import TrainResult
 
@@ -67,10 +67,10 @@ def train(options):
 
 def evaluate_run(world, run_dir: str, num_slots: int, recorders=(),
                  trust_checkpoint: bool = False) -> tuple[dict, dict]:
-    """(per-agent metrics of `agile.run.multi_agent.evaluate`, {"happo": checkpoint}) of a HAPPO run folder's newest
+    """(per-agent metrics of `agile.run.multi_agent_world.evaluate`, {"happo": checkpoint}) of a HAPPO run folder's newest
     checkpoint, each actor acting on the mean of its action distribution."""
     from agile.marl.harl import AgentPolicyView, HappoCfg
-    from agile.run.multi_agent import evaluate
+    from agile.run.multi_agent_world import evaluate
 
     path = newest_checkpoint(run_dir)
     contents = task_setup.read_checkpoint(path, trust_checkpoint)

@@ -29,7 +29,7 @@ def seconds_per_simulated_second(step, simulated_s_per_call: float, calls: int, 
 def measure_world(task: str, num_envs: int, device: str | None, calls: int, overrides: list[str]) -> dict:
     import torch
 
-    from agile.run.multi_agent import make_world
+    from agile.run.multi_agent_world import make_world
 
     env_cfg, _, device = task_setup.load_task(task=task, num_envs=num_envs, device=device, overrides=overrides)
     world = make_world(task, env_cfg, device)

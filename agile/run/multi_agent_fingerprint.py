@@ -12,16 +12,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from agile.run.fingerprint import PhysicsSteps, ShippedPolicy, observation_summary, stack_steps
+from agile.run.fingerprint_rows import PhysicsSteps, observation_summary, stack_steps
 
 
-def rollout(policy: ShippedPolicy, env_cfg, agent_cfg, *, seed: int, num_steps: int,
+def rollout(policy, env_cfg, agent_cfg, *, seed: int, num_steps: int,
             recording: dict[str, np.ndarray] | None) -> dict[str, np.ndarray]:
-    """{name: array} of the world's rollout from a reset with `seed`, `num_steps` world steps; with `recording`, each
-    tick's physics result replaced by the recorded one."""
+    """{name: array} of the rollout of `policy` (a fingerprint.ShippedPolicy) from a reset with `seed`, `num_steps`
+    world steps; with `recording`, each tick's physics result replaced by the recorded one."""
     import torch
 
-    from agile.run.multi_agent import acting_actions, evaluation_cfg, make_world, restored_runner
+    from agile.run.multi_agent import restored_runner
+    from agile.run.multi_agent_world import acting_actions, evaluation_cfg, make_world
 
     world = make_world(policy.task, evaluation_cfg(env_cfg, pushes=True), "cpu")
     try:
@@ -54,6 +55,6 @@ def rollout(policy: ShippedPolicy, env_cfg, agent_cfg, *, seed: int, num_steps: 
 
 
 def agent_summary(name: str, obs, agent) -> dict:
-    """One agent's observation summaries (`fingerprint.observation_summary`), named obs/<agent>/<group>/<term>."""
+    """One agent's observation summaries (`fingerprint_rows.observation_summary`), named obs/<agent>/<group>/<term>."""
     return {f"obs/{name}/{key[len('obs/'):]}": value
             for key, value in observation_summary(obs, agent.observation_manager.term_dims).items()}
