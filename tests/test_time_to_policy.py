@@ -137,3 +137,13 @@ def test_a_run_without_a_seed_is_named_by_the_tasks_seed_not_none():
     from agile.run.time_to_policy_plots import seed_name
 
     assert seed_name(None) == "the task's seed" and seed_name(0) == "seed 0" and seed_name(7) == "seed 7"
+
+
+def test_a_resumed_runs_first_iteration_is_marked_after_its_checkpoints_time():
+    """The curve of a resumed run (its wall times counted on from the checkpoint's) marked its first iteration at
+    22.5 s, far left of its evaluations at 902-2020 s."""
+    from agile.run.time_to_policy_plots import first_iteration_wall_s
+
+    assert first_iteration_wall_s({"first_iteration_s": 22.5, "wall_s_before": 863.8}) == 863.8 + 22.5
+    assert first_iteration_wall_s({"first_iteration_s": 22.5, "wall_s_before": 0.0}) == 22.5
+    assert first_iteration_wall_s({"first_iteration_s": None, "wall_s_before": 863.8}) is None

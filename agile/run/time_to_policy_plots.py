@@ -20,6 +20,14 @@ def outcome(result: dict) -> str:
     return f"time to policy {result['time_to_policy_s']:.0f} s (iteration {result['iteration_at_criteria']})"
 
 
+def first_iteration_wall_s(result: dict) -> float | None:
+    """Where the run's first iteration lies on the curve's time axis: a resumed run's wall times count on from its
+    checkpoint's (`wall_s_before`), its own start-up after them."""
+    if result["first_iteration_s"] is None:
+        return None
+    return result.get("wall_s_before", 0.0) + result["first_iteration_s"]
+
+
 def plot(results: list[dict], path: str, title: str) -> bool:
     """The curve of each evaluated metric against wall time into `path`, one line per run (seed); False (no file)
     when no checkpoint was evaluated (none written within the budget)."""
@@ -37,13 +45,13 @@ def plot(results: list[dict], path: str, title: str) -> bool:
             rows = [r for r in result["evaluations"] if metric in r]
             line, = ax.plot([r["wall_s"] for r in rows], [r[metric] for r in rows], marker="o", ms=3,
                             label=f"{seed_name(result['seed'])}: {outcome(result)}")
-            if result["first_iteration_s"] is not None:
-                ax.axvline(result["first_iteration_s"], color=line.get_color(), ls=":")
+            if first_iteration_wall_s(result) is not None:
+                ax.axvline(first_iteration_wall_s(result), color=line.get_color(), ls=":")
         if metric in results[0]["criteria"]:
             ax.axhline(results[0]["criteria"][metric], color="r", label="maximum")
         if metric in results[0].get("minima", {}):
             ax.axhline(results[0]["minima"][metric], color="g", label="minimum")
-        ax.set_xlabel("wall time since start [s]")
+        ax.set_xlabel("training wall time [s]")
         ax.set_title(metric)
     axes[0][0].legend(fontsize=6)
     fig.suptitle(f"{title} ({results[0]['gpus']} GPU(s); dotted: first iteration)")
