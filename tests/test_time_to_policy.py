@@ -82,6 +82,7 @@ def test_seeds_run_one_after_another_evaluated_after_the_training_and_summarised
     for seed, result in zip((3, 4), runs, strict=True):
         (first,) = result["evaluations"]
         assert first["iteration"] == 0 and first["met"] and result["evaluated"] == "after the training"
+        assert result["climb"] is None  # the task's criteria: no terrain level to climb to
         assert result["time_to_policy_s"] == first["wall_s"] < 300
         # it trained on past the first checkpoint, in the training's own log beside it
         assert "Learning iteration 2" in (tmp_path / f"seeds_seed{seed}.log").read_text()

@@ -12,7 +12,8 @@ import torch
 
 from agile.errors import AgileError
 from agile.run.time_to_policy import time_to_policy, time_to_policy_options
-from agile.run.time_to_policy_judge import ALL_ROWS_OVERRIDE, CheckpointJudge, criteria_of
+from agile.run.time_to_policy_judge import (ALL_ROWS_OVERRIDE, CLIMB_CHECKPOINTS, CheckpointJudge, climb,
+                                            climb_in_words, criteria_of)
 from agile.tasks.registration import TaskSpec, TaskSpecError
 
 TASK = "Velocity-T1-v0"
@@ -115,3 +116,19 @@ def test_a_ship_bar_names_its_fields():
     with pytest.raises(TaskSpecError, match="ship_bar holds a number for each of mean_terrain_level, fall_rate, "
                                             "all_rows_fall_rate"):
         TaskSpec(task="X-v0", env_cfg_entry_point="m:a", runner_cfg_entry_point="m:b", ship_bar={"fall_rate": 0.1})
+
+
+def test_the_climbs_pace_and_when_it_would_reach_the_bar():
+    """The pace over the newest checkpoints only (the flat start at row 0 left out once enough come after it), and
+    the bar's time at that pace; none where the training does not climb or too few checkpoints hold a level."""
+    flat = [{"wall_s": 10.0 * i, "mean_terrain_level": 0.0} for i in range(5)]
+    climbing = [{"wall_s": 100.0 + 16.0 * i, "mean_terrain_level": 3.0 + 0.1 * i} for i in range(CLIMB_CHECKPOINTS)]
+    pace = climb(flat + climbing, 10.0)
+    assert pace["rows_per_100s"] == pytest.approx(0.625) and pace["from_wall_s"] == 100.0
+    last_s, last_level = climbing[-1]["wall_s"], climbing[-1]["mean_terrain_level"]
+    assert pace["bar_at_wall_s"] == pytest.approx(last_s + (10.0 - last_level) / 0.00625, abs=0.1)
+    assert "at this pace level 10 at about" in climb_in_words(pace, 10.0)
+    assert "bar_at_wall_s" not in climb(climbing, 3.5)  # past the bar already
+    assert "bar_at_wall_s" not in climb(flat, 10.0) and climb(flat, 10.0)["rows_per_100s"] == 0.0
+    evaluated_only = [{"wall_s": 1.0, "fall_rate": 0.1}, {"wall_s": 2.0, "mean_terrain_level": 1.0}]
+    assert climb(evaluated_only, 10.0) is None and climb([], 10.0) is None

@@ -22,7 +22,8 @@ time to policy is then when the first one that meets the criteria was written, a
 would have reached it. `--target shippable` judges by the task's ship bar instead (`ship_bar` of its registration:
 the training's mean terrain level, read from the checkpoint, then the falls on the start rows, then over every row);
 a training that outlasts one budget continues with `--resume` from the newest checkpoint of a run kept with
-`--log_root`, its wall time counted on from the time the checkpoint records. From Python:
+`--log_root`, its wall time counted on from the time the checkpoint records (the result's "climb": how fast the
+terrain level rose over the newest checkpoints, and when it would reach the bar at that pace). From Python:
 `time_to_policy(task=..., budget_s=..., out=..., ...)` returns what <out>.json holds.
 """
 
@@ -43,8 +44,8 @@ from pathlib import Path
 from agile.run.arguments import command
 from agile.run import arguments, task_setup, train_options
 from agile.errors import AgileError
-from agile.run.time_to_policy_judge import (TARGETS, CheckpointJudge, all_checkpoints, check_target, criteria_of,
-                                            newest_checkpoint, recorded_wall_s)
+from agile.run.time_to_policy_judge import (TARGETS, CheckpointJudge, all_checkpoints, check_target, climb,
+                                            climb_in_words, criteria_of, newest_checkpoint, recorded_wall_s)
 from agile.run.time_to_policy_plots import outcome, plot, seed_name
 
 FIRST_ITERATION_MARK = "Learning iteration"
@@ -121,7 +122,9 @@ def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Pa
                 "resumed_from": options.resume, "wall_s_before": wall_s_before, "status": status,
                 "first_iteration_s": None if first_iteration_s is None else round(first_iteration_s, 1),
                 "time_to_policy_s": met_at["wall_s"] if met_at else None,
-                "iteration_at_criteria": met_at["iteration"] if met_at else None, "evaluations": judge.rows}
+                "iteration_at_criteria": met_at["iteration"] if met_at else None,
+                "climb": (climb(judge.rows, minima["mean_terrain_level"]) if "mean_terrain_level" in minima else None),
+                "evaluations": judge.rows}
 
     def progress(status: str) -> None:
         if report is not None:
@@ -294,6 +297,8 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
             print(f"[agile] the run's newest checkpoint: {result['newest_checkpoint']} (resume to continue it)",
                   flush=True)
         met = result["time_to_policy_s"]
+        if met is None and result["climb"] is not None:
+            print(f"[agile] {climb_in_words(result['climb'], result['minima']['mean_terrain_level'])}", flush=True)
         print(f"[agile] {task}, {seed_name(run_seed)}: " + (
             f"criteria met at {met} s (iteration {result['iteration_at_criteria']})" if met is not None
             else f"criteria not met within {budget_s:g} s") + f"; first iteration at "

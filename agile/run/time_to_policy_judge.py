@@ -114,6 +114,39 @@ def mean_terrain_level(path: Path) -> float | None:
     return None if levels is None else float(levels.float().mean())
 
 
+CLIMB_CHECKPOINTS = 10
+"""The newest judged checkpoints a climb's pace is fitted over (500 iterations at the default --save_interval)."""
+
+
+def climb(rows: list[dict], bar_level: float) -> dict | None:
+    """The training's pace up the terrain over its newest CLIMB_CHECKPOINTS judged checkpoints (`rows` of a
+    CheckpointJudge): rows per 100 s of training wall time (a least-squares line through their mean terrain levels
+    and wall times); below `bar_level` and climbing, also the wall time at which the newest level would reach it at
+    that pace. None with fewer than two checkpoints that hold a level."""
+    points = [(r["wall_s"], r["mean_terrain_level"]) for r in rows if r.get("mean_terrain_level") is not None]
+    points = points[-CLIMB_CHECKPOINTS:]
+    if len(points) < 2 or points[0][0] == points[-1][0]:
+        return None
+    mean_s = sum(s for s, _ in points) / len(points)
+    mean_level = sum(level for _, level in points) / len(points)
+    rows_per_s = sum((s - mean_s) * (level - mean_level) for s, level in points) / \
+        sum((s - mean_s) ** 2 for s, _ in points)
+    (first_s, _), (last_s, last_level) = points[0], points[-1]
+    pace = {"rows_per_100s": round(100.0 * rows_per_s, 3), "from_wall_s": first_s, "to_wall_s": last_s,
+            "mean_terrain_level": round(last_level, 3)}
+    if last_level < bar_level and rows_per_s > 0:
+        pace["bar_at_wall_s"] = round(last_s + (bar_level - last_level) / rows_per_s, 1)
+    return pace
+
+
+def climb_in_words(pace: dict, bar_level: float) -> str:
+    words = (f"mean terrain level {pace['mean_terrain_level']:g} at {pace['to_wall_s']:g} s, "
+             f"{pace['rows_per_100s']:g} rows per 100 s over the checkpoints from {pace['from_wall_s']:g} s")
+    if "bar_at_wall_s" in pace:
+        words += f": at this pace level {bar_level:g} at about {pace['bar_at_wall_s']:.0f} s of training"
+    return words
+
+
 class CheckpointJudge:
     """Evaluates checkpoints against the criteria (each evaluation env built at its first use) and keeps the rows.
     A checkpoint's wall time is when the training wrote it, counted from `start_epoch` (time.time()), plus
