@@ -67,8 +67,8 @@ def train(options):
 
 def evaluate_run(world, run_dir: str, num_slots: int, recorders=(),
                  trust_checkpoint: bool = False) -> tuple[dict, dict]:
-    """(per-agent metrics of `agile.run.multi_agent_world.evaluate`, {"happo": checkpoint}) of a HAPPO run folder's newest
-    checkpoint, each actor acting on the mean of its action distribution."""
+    """(per-agent metrics of `agile.run.multi_agent_world.evaluate`, {"happo": checkpoint}) of a HAPPO run folder's
+    newest checkpoint, each actor acting on the mean of its action distribution."""
     from agile.marl.harl import AgentPolicyView, HappoCfg
     from agile.run.multi_agent_world import evaluate
 

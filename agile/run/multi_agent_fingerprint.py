@@ -3,10 +3,10 @@ slot by slot on the CPU with its shipped agent groups acting, as an evaluation r
 curriculum), pushes on.
 
 A world step's row holds, for each agent acting at it, its actions (`actions/<agent>`), and for each agent whose
-period ended there, its reward (`reward_total/<agent>`), weighted reward terms (`reward/<agent>/<term>`),
-termination terms (`termination/<agent>/<term>`) and observation summaries (`obs/<agent>/<group>/<term>`); an agent with no such result
-at a step has NaN there. The physics results (`state/`, `input/`) are one row per physics tick of the world, as the
-replay writes the recorded state back after each tick."""
+period ended there, its reward (`reward_total/<agent>`), weighted reward terms (`reward/<agent>/<term>`), termination
+terms (`termination/<agent>/<term>`) and observation summaries (`obs/<agent>/<group>/<term>`); an agent with no such
+result at a step has NaN there. The physics results (`state/`, `input/`) are one row per physics tick of the world, as
+the replay writes the recorded state back after each tick."""
 
 from __future__ import annotations
 
