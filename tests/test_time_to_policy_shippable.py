@@ -132,3 +132,26 @@ def test_the_climbs_pace_and_when_it_would_reach_the_bar():
     assert "bar_at_wall_s" not in climb(flat, 10.0) and climb(flat, 10.0)["rows_per_100s"] == 0.0
     evaluated_only = [{"wall_s": 1.0, "fall_rate": 0.1}, {"wall_s": 2.0, "mean_terrain_level": 1.0}]
     assert climb(evaluated_only, 10.0) is None and climb([], 10.0) is None
+
+
+def test_while_training_each_new_checkpoints_level_and_the_climb_so_far_are_kept(tmp_path, capsys):
+    """Before anything is judged (--evaluate_after_training), each new checkpoint's level is noted as it comes, so
+    that the record of a run cut off says how fast it climbed; a file not yet whole is skipped."""
+    import os
+
+    judge = RecordingJudge({})
+    for i, level in enumerate((3.0, 3.1, 3.2)):
+        path = checkpoint_at_level(tmp_path / f"model_{i * 50}.pt", level)
+        os.utime(path, (100.0 + 16.0 * i, 100.0 + 16.0 * i))  # written 16 s apart
+        judge.note_level(i * 50, path)
+    cut_short = tmp_path / "model_150.pt"
+    cut_short.write_bytes(path.read_bytes()[:100])
+    judge.note_level(150, cut_short)
+    assert [row["iteration"] for row in judge.levels] == [0, 50, 100] and judge.rows == []
+    assert [row["wall_s"] for row in judge.levels] == [100.0, 116.0, 132.0]  # start_epoch 0
+    pace = climb(judge.levels, 10.0)
+    assert pace["rows_per_100s"] == pytest.approx(0.625) and pace["bar_at_wall_s"] == pytest.approx(132.0 + 6.8 / 0.00625)
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0].endswith("iteration 0: mean terrain level 3.000")
+    assert printed[-1].endswith("(0.625 rows per 100 s over the checkpoints from 100 s: at this pace level 10 at "
+                                "about 1220 s of training)")

@@ -123,7 +123,8 @@ def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Pa
                 "first_iteration_s": None if first_iteration_s is None else round(first_iteration_s, 1),
                 "time_to_policy_s": met_at["wall_s"] if met_at else None,
                 "iteration_at_criteria": met_at["iteration"] if met_at else None,
-                "climb": (climb(judge.rows, minima["mean_terrain_level"]) if "mean_terrain_level" in minima else None),
+                "climb": (climb(judge.rows or judge.levels, minima["mean_terrain_level"])
+                          if "mean_terrain_level" in minima else None),
                 "evaluations": judge.rows}
 
     def progress(status: str) -> None:
@@ -138,6 +139,9 @@ def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Pa
                 newest = newest_checkpoint(log_root)
                 if newest is not None and newest[0] != reported:
                     reported = newest[0]
+                    if "mean_terrain_level" in minima:
+                        time.sleep(0.5)  # rsl-rl writes the file in one torch.save: let it finish
+                        judge.note_level(*newest)
                     progress("training")
                 time.sleep(1.0)
         else:
@@ -297,8 +301,10 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
             print(f"[agile] the run's newest checkpoint: {result['newest_checkpoint']} (resume to continue it)",
                   flush=True)
         met = result["time_to_policy_s"]
-        if met is None and result["climb"] is not None:
-            print(f"[agile] {climb_in_words(result['climb'], result['minima']['mean_terrain_level'])}", flush=True)
+        pace = result["climb"]
+        if met is None and pace is not None:
+            print(f"[agile] mean terrain level {pace['mean_terrain_level']:g} at {pace['to_wall_s']:g} s, "
+                  f"{climb_in_words(pace, result['minima']['mean_terrain_level'])}", flush=True)
         print(f"[agile] {task}, {seed_name(run_seed)}: " + (
             f"criteria met at {met} s (iteration {result['iteration_at_criteria']})" if met is not None
             else f"criteria not met within {budget_s:g} s") + f"; first iteration at "

@@ -140,8 +140,8 @@ def climb(rows: list[dict], bar_level: float) -> dict | None:
 
 
 def climb_in_words(pace: dict, bar_level: float) -> str:
-    words = (f"mean terrain level {pace['mean_terrain_level']:g} at {pace['to_wall_s']:g} s, "
-             f"{pace['rows_per_100s']:g} rows per 100 s over the checkpoints from {pace['from_wall_s']:g} s")
+    """The pace of `climb` in words: the rows per 100 s and, where given, when the bar would be reached."""
+    words = f"{pace['rows_per_100s']:g} rows per 100 s over the checkpoints from {pace['from_wall_s']:g} s"
     if "bar_at_wall_s" in pace:
         words += f": at this pace level {bar_level:g} at about {pace['bar_at_wall_s']:.0f} s of training"
     return words
@@ -158,6 +158,8 @@ class CheckpointJudge:
         self.start_epoch, self.wall_s_before = start_epoch, wall_s_before
         self.evaluators: dict[str, object] = {}
         self.rows: list[dict] = []
+        self.levels: list[dict] = []
+        """The terrain level of each checkpoint as the training wrote it (`note_level`), before any is judged."""
 
     def evaluate(self, name: str, path: Path, overrides: tuple = ()) -> dict:
         if name not in self.evaluators:
@@ -185,10 +187,32 @@ class CheckpointJudge:
         metrics["all_rows_fall_rate"] = self.evaluate("all rows", path, (ALL_ROWS_OVERRIDE,))["fall_rate"]
         return metrics, missed_criteria(metrics, all_rows, {})
 
+    def written_s(self, path: Path) -> float:
+        """When the training wrote the checkpoint, in training wall time."""
+        return self.wall_s_before + path.stat().st_mtime - self.start_epoch
+
+    def note_level(self, iteration: int, path: Path) -> None:
+        """Keep (and print) a new checkpoint's terrain level and the climb so far, while the training runs; a file
+        not yet whole is skipped (the next checkpoint is noted instead)."""
+        from agile.rl.checkpoints import UnreadableCheckpointError
+
+        try:
+            level = mean_terrain_level(path)
+        except UnreadableCheckpointError:
+            return
+        if level is None:
+            return
+        self.levels.append({"iteration": iteration, "wall_s": round(self.written_s(path), 1),
+                            "mean_terrain_level": level})
+        bar = self.minima["mean_terrain_level"]
+        pace = climb(self.levels, bar)
+        print(f"[agile] {self.levels[-1]['wall_s']:7.1f} s, iteration {iteration}: mean terrain level {level:.3f}"
+              + (f" ({climb_in_words(pace, bar)})" if pace else ""), flush=True)
+
     def __call__(self, iteration: int, path: Path) -> dict:
         from agile.tasks.catalogue import missed_criteria
 
-        written_s = self.wall_s_before + path.stat().st_mtime - self.start_epoch  # when the training wrote it
+        written_s = self.written_s(path)
         if self.options.target == "shippable":
             metrics, missed = self.shippable_metrics(path)
         else:
