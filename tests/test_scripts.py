@@ -1,10 +1,8 @@
-"""The commands as a user runs them (CPU), in this process (`agile.run.<command>.main`); a subprocess only where the
-process's own output is the point (what the libraries underneath print)."""
+"""The commands as a user runs them (CPU), in this process (`agile.run.<command>.main`). What the libraries underneath
+print, in fresh interpreters: tests/test_quiet_output.py."""
 
 import json
 import re
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -20,8 +18,6 @@ def command_of(script: str) -> str:
     return Path(script).stem
 
 
-
-
 def run(script, *args, timeout=600):
     """(exit code, stdout and stderr) of `python scripts/<command>.py ARGS`, run in this process from the checkout."""
     code, out, err = run_command(command_of(script), *args, cwd=ROOT)
@@ -31,17 +27,6 @@ def run(script, *args, timeout=600):
 def run_split(script, *args, timeout=600):
     """(exit code, stdout, stderr)."""
     return run_command(command_of(script), *args, cwd=ROOT)
-
-
-def run_process(*args, timeout=600):
-    """(exit code, stdout and stderr) of a fresh interpreter: for what Warp and torch print outside Python."""
-    result = subprocess.run([sys.executable, *args], cwd=ROOT, capture_output=True, text=True, timeout=timeout)
-    return result.returncode, result.stdout + result.stderr
-
-
-NOISE = ("load on device", "Actor Model", "Critic Model", "Could not find git repository", "FutureWarning",
-         "DeprecationWarning", "Traceback", "torchvision is not installed", "Warp CUDA warning")
-"""What a newcomer's run must not print unless --verbose."""
 
 
 @pytest.fixture(scope="module")
@@ -87,20 +72,6 @@ def test_help_of_every_command(command, capsys):
     if command in ("train", "play", "eval", "export"):  # the override syntax, with an example of each kind
         assert "weight=2.0" in out and "activation=relu" in out and "hidden_dims=[128, 128]" in out \
             and "terrain=null" in out, out
-
-
-@pytest.mark.slow
-def test_a_quiet_run_prints_no_library_noise(tmp_path):
-    code, out = run_process("scripts/train.py", "--task", "Velocity-T1-v0", "--num_envs", "2", "--max_iterations", "1",
-                            "--device", "cpu", "--log_root", str(tmp_path), "agent.num_steps_per_env=4",
-                            *FLAT_GROUND_ARGS)
-    assert code == 0, out
-    assert not [n for n in NOISE if n in out], out
-    assert "Learning iteration" in out and "\x1b[" not in out, out  # rsl-rl's block, without bold codes in a log
-    assert "[agile] building Velocity-T1-v0" in out  # a word of progress before the long first build
-    code, out = run_process("scripts/play.py", "--task", "Velocity-T1-v0", "--num_envs", "1", "--num_steps", "2",
-                            "--device", "cpu", "--verbose", *FLAT_GROUND_ARGS)
-    assert code == 0 and "load on device" in out, out  # --verbose shows Warp's module loads again
 
 
 @pytest.mark.parametrize("argv", [
@@ -391,31 +362,3 @@ def test_the_cpu_fallback_says_the_env_count_it_builds(num_envs, said, capsys):
     env_cfg, _, device = task_setup.load_task(task="Velocity-T1-v0", num_envs=num_envs)
     assert device == "cpu" and env_cfg.num_envs == (num_envs or task_setup.CPU_DEFAULT_NUM_ENVS)
     assert f"no GPU found: {said}" in capsys.readouterr().out
-
-
-@pytest.mark.slow
-def test_the_library_is_quiet_by_default():
-    """The README's gym.make snippet in a fresh interpreter (the process's output is the point): nothing from Warp,
-    its banner, kernel loads and CUDA-driver warning included."""
-    import os
-
-    program = ("import gymnasium as gym, torch, agile.tasks\n"  # on the task's terrain (the quiet run is on flat ground)
-               "env = gym.make('Velocity-T1-v0', num_envs=1, device='cpu')\n"
-               "env.reset(); env.step(torch.zeros(1, 12)); print('stepped')\n")
-    result = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, timeout=600,
-                            env={k: v for k, v in os.environ.items() if k != "AGILE_VERBOSE"})
-    assert result.returncode == 0, result.stderr
-    assert (result.stdout + result.stderr).strip() == "stepped", result.stdout + result.stderr
-
-
-def test_agile_verbose_is_the_switch_for_warps_output(monkeypatch):
-    import warp as wp
-
-    from agile.utils.output import configure_warp_output
-
-    monkeypatch.setenv("AGILE_VERBOSE", "1")
-    configure_warp_output()
-    assert not wp.config.quiet and wp.config.log_level == wp.LOG_INFO
-    monkeypatch.delenv("AGILE_VERBOSE")
-    configure_warp_output()
-    assert wp.config.quiet and wp.config.log_level == wp.LOG_WARNING
