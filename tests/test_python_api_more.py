@@ -41,7 +41,8 @@ def test_time_to_policy_refuses_bad_options_naming_the_field_before_anything_run
 
 def test_time_to_policy_resolves_its_criteria_recipe_and_training_command():
     from agile.run.recipes import RECIPES
-    from agile.run.time_to_policy import parse_criteria, time_to_policy_options, training_command
+    from agile.run.time_to_policy import parse_criteria, time_to_policy_options
+    from agile.run.time_to_policy_run import training_command
     from agile.run.time_to_policy_judge import criteria_of
     from agile.tasks.catalogue import task_entry
 

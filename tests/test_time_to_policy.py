@@ -10,7 +10,8 @@ import torch
 from commands import FLAT_GROUND_ARGS
 
 from agile.run.recipes import RECIPES
-from agile.run.time_to_policy import main, run_until_criteria, time_to_policy_options
+from agile.run.time_to_policy import main, time_to_policy_options
+from agile.run.time_to_policy_run import run_until_criteria
 
 
 @pytest.mark.slow

@@ -32,153 +32,18 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
-import os
-import signal
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 from agile.run.arguments import command
-from agile.run import arguments, task_setup, train_options
+from agile.run import arguments, task_setup
 from agile.errors import AgileError
-from agile.run.time_to_policy_judge import (TARGETS, CheckpointJudge, all_checkpoints, check_target, climb,
-                                            climb_in_words, criteria_of, newest_checkpoint, recorded_wall_s)
+from agile.run.time_to_policy_judge import (TARGETS, check_target, climb_in_words, newest_checkpoint,
+                                            recorded_wall_s)
+from agile.run.time_to_policy_run import TimeToPolicyOptions, run_until_criteria
 from agile.run.time_to_policy_plots import outcome, plot, seed_name
-
-FIRST_ITERATION_MARK = "Learning iteration"
-"""What rsl-rl's log prints for every iteration (the training runs with --progress log)."""
-
-
-@dataclasses.dataclass(frozen=True)
-class TimeToPolicyOptions:
-    """One timed run (`time_to_policy`'s keyword arguments, checked, for one seed; see them for each field):
-    `device` is resolved, `overrides` hold the recipe's first, then the given ones."""
-    task: str
-    budget_s: float
-    device: str
-    seed: int | None = None
-    gpus: int = 1
-    num_envs: int | None = None
-    save_interval: int = 50
-    max_iterations: int = 100_000
-    eval_num_envs: int | None = None
-    eval_device: str | None = None
-    eval_episode_length_s: float | None = None
-    evaluate_after_training: bool = False
-    criteria: dict | None = None
-    target: str = "criteria"
-    resume: str | None = None
-    recipe: str | None = None
-    overrides: tuple = ()
-
-
-def training_command(options: TimeToPolicyOptions, log_root: str) -> list[str]:
-    """The child process: `agile train` on one device, or torchrun over `gpus` GPUs."""
-    train_args = ["--task", options.task, "--max_iterations", str(options.max_iterations), "--log_root", log_root,
-                  "--progress", "log", f"agent.save_interval={options.save_interval}", *options.overrides]
-    if options.num_envs is not None:
-        train_args += ["--num_envs", str(options.num_envs)]
-    if options.seed is not None:
-        train_args += ["--seed", str(options.seed)]
-    if options.resume is not None:
-        train_args += ["--resume", "--checkpoint", options.resume]
-    return train_options.training_command(train_args, options.gpus, options.device)
-
-
-def wait_for_first_iteration(log_path: Path, process, start: float, budget_s: float) -> float | None:
-    """Seconds from the start to the training's first logged iteration (None: it ended or the budget ran out)."""
-    while time.monotonic() - start < budget_s and process.poll() is None:
-        if log_path.exists() and FIRST_ITERATION_MARK in log_path.read_text(errors="replace"):
-            return time.monotonic() - start
-        time.sleep(0.5)
-    return None
-
-
-def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Path, report=None) -> dict:
-    """Train in a child process (its output in `log_path`, its run under `log_root`) until a checkpoint meets the
-    criteria or the budget is spent; the run's result (what <out>.json holds, less the device and commit).
-    `report(result)`, where given, receives the result so far at every new checkpoint ("status" "training") and
-    after every evaluation ("evaluating"), so that a run cut off (a machine taken away) leaves a record of it."""
-    criteria, minima = criteria_of(options.task, options.target, options.criteria)
-    wall_s_before = 0.0 if options.resume is None else recorded_wall_s(options.resume)
-    start, start_epoch = time.monotonic(), time.time()
-    with open(log_path, "w") as log:
-        process = subprocess.Popen(training_command(options, log_root), stdout=log, stderr=subprocess.STDOUT,
-                                   start_new_session=True)
-    first_iteration_s = wait_for_first_iteration(log_path, process, start, options.budget_s)
-    judge = CheckpointJudge(options, criteria, minima, options.eval_device or options.device, start_epoch,
-                            wall_s_before)
-
-    def result(met_at: dict | None, status: str) -> dict:
-        return {"task": options.task, "seed": options.seed, "gpus": options.gpus,
-                "num_envs_per_gpu": options.num_envs, "budget_s": options.budget_s,
-                "recipe": options.recipe, "overrides": list(options.overrides),  # the recipe's first, then the given
-                "evaluated": ("after the training" if options.evaluate_after_training
-                              else f"beside it, on {judge.device}"),
-                "target": options.target, "criteria": criteria, "minima": minima,
-                "resumed_from": options.resume, "wall_s_before": wall_s_before, "status": status,
-                "first_iteration_s": None if first_iteration_s is None else round(first_iteration_s, 1),
-                "time_to_policy_s": met_at["wall_s"] if met_at else None,
-                "iteration_at_criteria": met_at["iteration"] if met_at else None,
-                "climb": (climb(judge.rows or judge.levels, minima["mean_terrain_level"])
-                          if "mean_terrain_level" in minima else None),
-                "evaluations": judge.rows}
-
-    def progress(status: str) -> None:
-        if report is not None:
-            report(result(None, status))
-
-    met_at = None
-    try:
-        if options.evaluate_after_training:
-            reported = None
-            while time.monotonic() - start < options.budget_s and process.poll() is None:
-                newest = newest_checkpoint(log_root)
-                if newest is not None and newest[0] != reported:
-                    reported = newest[0]
-                    if "mean_terrain_level" in minima:
-                        time.sleep(0.5)  # rsl-rl writes the file in one torch.save: let it finish
-                        judge.note_level(*newest)
-                    progress("training")
-                time.sleep(1.0)
-        else:
-            met_at = judge_as_they_come(options, judge, process, start, log_root, progress)
-    finally:
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGTERM)
-            process.wait(timeout=60)
-    if options.evaluate_after_training:
-        for iteration, path in all_checkpoints(log_root):
-            row = judge(iteration, path)
-            progress("evaluating")
-            if row["met"]:
-                met_at = row
-                break
-    return result(met_at, "finished")
-
-
-def judge_as_they_come(options: TimeToPolicyOptions, judge: CheckpointJudge, process, start: float,
-                       log_root: str, progress) -> dict | None:
-    """Evaluate the newest checkpoint whenever a new one appears (`progress("training")` after each that misses);
-    the row of the first that meets the criteria."""
-    evaluated = -1
-    while time.monotonic() - start < options.budget_s:
-        newest = newest_checkpoint(log_root)
-        if newest is None or newest[0] == evaluated:
-            if process.poll() is not None:
-                return None  # the training ended and every checkpoint is evaluated
-            time.sleep(1.0)
-            continue
-        iteration, path = newest
-        time.sleep(0.5)  # rsl-rl writes the file in one torch.save: let it finish
-        evaluated = iteration
-        if judge(iteration, path)["met"]:
-            return judge.rows[-1]
-        progress("training")
-    return None
 
 
 def seed_summary(results: list[dict]) -> dict:
