@@ -115,11 +115,11 @@ def mean_terrain_level(path: Path) -> float | None:
 
 
 CLIMB_CHECKPOINTS = 10
-"""The newest judged checkpoints a climb's pace is fitted over (500 iterations at the default --save_interval)."""
+"""The newest checkpoints a climb's pace is fitted over (500 iterations at the default --save_interval)."""
 
 
 def climb(rows: list[dict], bar_level: float) -> dict | None:
-    """The training's pace up the terrain over its newest CLIMB_CHECKPOINTS judged checkpoints (`rows` of a
+    """The training's pace up the terrain over its newest CLIMB_CHECKPOINTS checkpoints (`rows` or `levels` of a
     CheckpointJudge): rows per 100 s of training wall time (a least-squares line through their mean terrain levels
     and wall times); below `bar_level` and climbing, also the wall time at which the newest level would reach it at
     that pace. None with fewer than two checkpoints that hold a level."""
