@@ -13,9 +13,10 @@ ends) and its ratio, startup (gym.make to the first step
 done), device memory in use, the share of the env step spent in the explicit actuators (raw physics with and
 without them), the solver iterations of the slowest world under raw physics and under env.step (untimed),
 and where a training iteration's time goes (env steps, policy inference and rollout storage, PPO update: each phase
-synchronised, in host time; on CUDA also unsynchronised, on the GPU's clock), and the peak demand on the solver's constraint rows (njmax) and contacts. For a task on a terrain, the raw
-physics of the same robot on flat ground (no terrain, contact sensor or height rays) is measured first in a
-separate world, and the env.step and training rates are also given as ratios to it.
+synchronised, in host time; on CUDA also unsynchronised, on the GPU's clock), and the peak demand on the solver's
+constraint rows (njmax) and contacts. For a task on a terrain, the raw physics of the same robot on flat ground (no
+terrain, contact sensor or height rays) is measured first in a separate world, and the env.step and training rates
+are also given as ratios to it.
 """
 
 from __future__ import annotations

@@ -67,8 +67,8 @@ def parse_args(argv):
                         "agile sim_robot)")
     parser.add_argument("--domain_id", type=int, default=0, help="the DDS domain (the robots' own: 0)")
     parser.add_argument("--command", type=float, nargs="+", default=None, metavar="V",
-                        help="a fixed command VX VY WZ [HEIGHT] (default: standing, at the default height; with --remote, "
-                        "the sticks set VX VY WZ)")
+                        help="a fixed command VX VY WZ [HEIGHT] (default: standing, at the default height; with "
+                        "--remote, the sticks set VX VY WZ)")
     parser.add_argument("--remote", action="store_true", help="the G1's wireless remote (in LowState_): start, A "
                         "and select buttons, the sticks as the velocity command")
     parser.add_argument("--command_topic", default=None, metavar="TOPIC", help="a DDS topic of geometry_msgs/Twist "
@@ -129,8 +129,8 @@ def prepare(args):
         raise AgileError(str(err)) from None
     command = default_command(bundle) if args.command is None else np.array(args.command)
     if command.shape != (bundle.command_size,):
-        raise AgileError(f"--command: {bundle.task} takes {bundle.command_size} values ({' '.join(bundle.command_elements)}), "
-                 f"got {len(args.command)}")
+        raise AgileError(f"--command: {bundle.task} takes {bundle.command_size} values "
+                         f"({' '.join(bundle.command_elements)}), got {len(args.command)}")
     sdk = {"g1": "unitree_sdk2py", "t1": "booster_robotics_sdk_python"}[spec.name]
     try:
         __import__(sdk)

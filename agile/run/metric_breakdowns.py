@@ -50,7 +50,8 @@ class ErrorByCommand:
             return []
         bounds = [0.0, *self.edges, None]
         rows = []
-        for i, (errors, steps) in enumerate(zip(self.error_sum_per_env.cpu().double(), self.steps_per_env.cpu().double())):
+        per_env = zip(self.error_sum_per_env.cpu().double(), self.steps_per_env.cpu().double())
+        for i, (errors, steps) in enumerate(per_env):
             total = float(steps.sum())
             if total == 0:
                 continue

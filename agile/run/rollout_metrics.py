@@ -3,10 +3,10 @@ sweeps: a policy run over every env's first `num_episodes` episodes, on the devi
 
 An env whose episode ends early starts another within the window, which is not counted: every env contributes
 exactly `num_episodes`. Commands are drawn by the task's command term (uniform over its ranges, a share standing),
-unless the caller fixed them. Velocity errors are measured for tasks with a velocity command (also by commanded planar speed and by commanded
-|yaw rate|, under "error_by_command"), the height error (commanded minus measured above the terrain) for those with a
-base-height command; every task reports its episode metrics as means over the ended
-episodes under "episode_metrics": its command terms' (`CommandTerm.metrics`, "<term>/<name>": the motion-tracking
+unless the caller fixed them. Velocity errors are measured for tasks with a velocity command (also by commanded
+planar speed and by commanded |yaw rate|, under "error_by_command"), the height error (commanded minus measured
+above the terrain) for those with a base-height command; every task reports its episode metrics as means over the
+ended episodes under "episode_metrics": its command terms' (`CommandTerm.metrics`, "<term>/<name>": the motion-tracking
 errors, pick-and-place success) and its metric terms' (the env cfg's `metrics`, "<name>": the stand-up success);
 a command that draws kinds of episode (pick-and-place: which trajectory) gets episodes, falls and those metrics per
 kind under "episodes_by_variant" (by its name), and a task on a terrain grid the same by the cell each episode

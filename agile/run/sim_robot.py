@@ -46,8 +46,8 @@ def main(argv=None) -> None:
     parser.add_argument("--out", default=None, metavar="PATH.json", help="write counters and samples here at exit")
     args = parser.parse_args(argv)  # not arguments.parse: it initialises Warp, unused here, before the input is checked
     if args.robot != "g1":
-        raise AgileError(f"--robot: sim_robot simulates g1 only (the Booster SDK's Python binding publishes no T1 LowState);"
-                 f" got '{args.robot}'")
+        raise AgileError(f"--robot: sim_robot simulates g1 only (the Booster SDK's Python binding publishes no T1 "
+                         f"LowState); got '{args.robot}'")
     if not 0 <= args.drop_rate < 1:
         raise AgileError(f"--drop_rate must be in [0, 1), got {args.drop_rate}")
     for name in ("latency_s", "gantry_release_s"):
