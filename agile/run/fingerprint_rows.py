@@ -24,10 +24,10 @@ class PhysicsSteps:
         import torch
 
         result = self.sim.physics_result()
-        self.rows.append({physics_key(name): value for name, value in result.items()})
+        self.rows.append({_physics_key(name): value for name, value in result.items()})
         if self.recording is not None:
             step = len(self.rows)
-            self.sim.write_physics_result({name: torch.from_numpy(self.recording[physics_key(name)][step])
+            self.sim.write_physics_result({name: torch.from_numpy(self.recording[_physics_key(name)][step])
                                            for name in result})
 
 
@@ -38,10 +38,10 @@ def stack_steps(steps: list[dict]) -> dict[str, np.ndarray]:
     for step in steps:
         for name, value in step.items():
             like.setdefault(name, value)
-    return {name: np.stack([as_array(s.get(name), like[name]) for s in steps]) for name in like}
+    return {name: np.stack([_as_array(s.get(name), like[name]) for s in steps]) for name in like}
 
 
-def physics_key(name: str) -> str:
+def _physics_key(name: str) -> str:
     """A physics result's entry in the fingerprint: the joint state is compared ("state/"); the actuators' torques and
     the contact sensors' readings are inputs of the replay ("input/"): stiff contacts make them differ between CPUs by
     more than rounding (a lying G1's contact forces by ~10% after one step from the same state)."""
@@ -67,7 +67,7 @@ def observation_summary(obs, term_dims: dict[str, dict[str, int]]) -> dict:
     return out
 
 
-def as_array(value, like) -> np.ndarray:
+def _as_array(value, like) -> np.ndarray:
     if value is None:
         return np.full(tuple(like.shape), np.nan)
     return value.detach().double().cpu().numpy()

@@ -16,6 +16,8 @@ from agile.run.time_to_policy_judge import (CheckpointJudge, all_checkpoints, cl
 
 FIRST_ITERATION_MARK = "Learning iteration"
 """What rsl-rl's log prints for every iteration (the training runs with --progress log)."""
+CHECKPOINT_WRITE_WAIT_S = 0.5
+"""How long a new checkpoint is left before it is read: rsl-rl writes the file in one torch.save."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -106,7 +108,7 @@ def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Pa
                 if newest is not None and newest[0] != reported:
                     reported = newest[0]
                     if "mean_terrain_level" in minima:
-                        time.sleep(0.5)  # rsl-rl writes the file in one torch.save: let it finish
+                        time.sleep(CHECKPOINT_WRITE_WAIT_S)
                         judge.note_level(*newest)
                     progress("training")
                 time.sleep(1.0)
@@ -139,7 +141,7 @@ def judge_as_they_come(options: TimeToPolicyOptions, judge: CheckpointJudge, pro
             time.sleep(1.0)
             continue
         iteration, path = newest
-        time.sleep(0.5)  # rsl-rl writes the file in one torch.save: let it finish
+        time.sleep(CHECKPOINT_WRITE_WAIT_S)
         evaluated = iteration
         if judge(iteration, path)["met"]:
             return judge.rows[-1]
