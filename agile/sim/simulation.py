@@ -19,11 +19,12 @@ from agile.sim.contact_sensor import ContactSensor
 from agile.sim.height_scanner import HeightScanner, TerrainHeights
 from agile.sim.scene import Scene, build_world_template, entity_of, filter_shape_ids, make_entities
 from agile.sim.scene_cfg import SceneCfg
-from agile.sim.sim_cfg import SimCfg
+from agile.sim.sim_cfg import SimCfg, check_physics_cfg
 from agile.sim.terrain import TerrainData, load_or_generate_terrain
 from agile.sim.terrain_contacts import TerrainContacts, split_terrain_pairs
-from agile.utils.config import ConfigError, domain_problems
+from agile.utils.config import ConfigError
 from agile.utils.heap import no_collection_while_capturing
+
 
 def env_origins_grid(num_envs: int, spacing_m: float, device) -> torch.Tensor:
     """(N, 3) origins on a square grid centred on the world origin."""
@@ -41,27 +42,6 @@ def terrain_heightfield(terrain: TerrainData) -> newton.Heightfield:
     nx, ny = terrain.heights_m.shape
     h = terrain.horizontal_scale_m
     return newton.Heightfield(data=terrain.heights_m.T, nrow=ny, ncol=nx, hx=(nx - 1) * h / 2, hy=(ny - 1) * h / 2)
-
-
-TERRAIN_COLLISIONS = ("probes", "newton_pipeline")
-
-
-def check_physics_cfg(cfg: SimCfg, scene_cfg: SceneCfg) -> None:
-    """Solver budgets and iterations of 0 run a world without contacts or constraint solving (MuJoCo prints an
-    overflow every step instead of failing); MuJoCo warns that a friction of 0 may give NaN. Checked before anything
-    is built."""
-    problems = [f"sim.solver.{p}" for p in domain_problems(
-        cfg.solver, positive=("iterations", "ls_iterations", "njmax", "nconmax", "impratio"))]
-    problems += [f"scene.{p}" for p in domain_problems(scene_cfg, positive=("ground_friction",),
-                                                       non_negative=("terrain_contact_gap_m",))]
-    max_init_level = scene_cfg.max_init_terrain_level
-    if max_init_level is not None and max_init_level < 0:  # checked before the terrain is built (seconds on a CPU)
-        problems.append(f"scene.max_init_terrain_level must be >= 0 (or None: any row), got {max_init_level}")
-    if scene_cfg.terrain_collision not in TERRAIN_COLLISIONS:
-        problems.append(f"scene.terrain_collision must be one of {list(TERRAIN_COLLISIONS)}, "
-                        f"got {scene_cfg.terrain_collision!r}")
-    if problems:
-        raise ConfigError("; ".join(problems))
 
 
 class Simulation:
