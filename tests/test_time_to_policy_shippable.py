@@ -155,3 +155,17 @@ def test_while_training_each_new_checkpoints_level_and_the_climb_so_far_are_kept
     assert printed[0].endswith("iteration 0: mean terrain level 3.000")
     assert printed[-1].endswith("(0.625 rows per 100 s over the checkpoints from 100 s: at this pace level 10 at "
                                 "about 1220 s of training)")
+
+
+def test_a_level_noted_while_training_is_not_read_again_when_judged(tmp_path):
+    """After the training, each checkpoint noted while it ran is judged by the level it had then, its file not
+    loaded again; one not noted is read."""
+    judge = RecordingJudge({"start rows": PASSING, "all rows": {"fall_rate": 0.05}})
+    noted = checkpoint_at_level(tmp_path / "model_50.pt", 3.0)
+    judge.note_level(50, noted)
+    noted.write_bytes(b"not a checkpoint")  # loading it now would raise
+    assert judge(50, noted)["mean_terrain_level"] == 3.0 and judge.asked == []
+    not_noted = checkpoint_at_level(tmp_path / "model_100.pt", 10.5)
+    row = judge(100, not_noted)
+    assert row["mean_terrain_level"] == 10.5 and row["met"]
+    assert [name for name, _ in judge.asked] == ["start rows", "all rows"]
