@@ -175,8 +175,8 @@ class CheckpointJudge:
         passed (an evaluation is the cost), and `missed` names the step that failed, not those it spared."""
         from agile.tasks.catalogue import missed_criteria
 
-        noted = [row["mean_terrain_level"] for row in self.levels if row["iteration"] == iteration]
-        metrics = {"mean_terrain_level": noted[0] if noted else mean_terrain_level(path)}  # a level noted: not read again
+        noted = [row["mean_terrain_level"] for row in self.levels if row["iteration"] == iteration]  # while training
+        metrics = {"mean_terrain_level": noted[0] if noted else mean_terrain_level(path)}
         missed = missed_criteria(metrics, {}, self.minima)
         if missed:
             return metrics, missed
