@@ -45,8 +45,9 @@ def plot(results: list[dict], path: str, title: str) -> bool:
             rows = [r for r in result["evaluations"] if metric in r]
             line, = ax.plot([r["wall_s"] for r in rows], [r[metric] for r in rows], marker="o", ms=3,
                             label=f"{seed_name(result['seed'])}: {outcome(result)}")
-            if first_iteration_wall_s(result) is not None:
-                ax.axvline(first_iteration_wall_s(result), color=line.get_color(), ls=":")
+            first_s = first_iteration_wall_s(result)
+            if first_s is not None:
+                ax.axvline(first_s, color=line.get_color(), ls=":")
         if metric in results[0]["criteria"]:
             ax.axhline(results[0]["criteria"][metric], color="r", label="maximum")
         if metric in results[0].get("minima", {}):
