@@ -101,21 +101,19 @@ def test_to_dict_names_functions():
     assert d["inner"] == {"weight": 1.0, "names": [".*"]}
 
 
-def _tasks_with_conditions() -> list[str]:
+def test_shipped_policy_conditions_still_name_real_fields():
+    # over the conditions file as it stands (no shipped policy has conditions at present): an entry whose task has
+    # no shipped policy, or whose overrides name a renamed field (ConfigError), fails here
     import agile.tasks
 
-    return [task for task in agile.tasks.registered_tasks() if agile.tasks.pretrained_policy_conditions(task)[1]]
-
-
-@pytest.mark.parametrize("task", _tasks_with_conditions())
-def test_shipped_policy_conditions_still_name_real_fields(task):
-    import agile.tasks
-
-    trained_on, overrides = agile.tasks.pretrained_policy_conditions(task)
-    assert trained_on and agile.tasks.pretrained_policy(task) is not None
-    env_cfg, agent_cfg = agile.tasks.load_cfgs(task)
-    apply_overrides({"env": env_cfg, "agent": agent_cfg}, overrides)  # a renamed field raises ConfigError
-    assert env_cfg.scene.terrain is None  # every shipped policy with conditions learned on flat ground
+    for task in agile.tasks.registered_tasks():
+        trained_on, overrides = agile.tasks.pretrained_policy_conditions(task)
+        if not overrides:
+            continue
+        assert trained_on and agile.tasks.pretrained_policy(task) is not None, task
+        env_cfg, agent_cfg = agile.tasks.load_cfgs(task)
+        apply_overrides({"env": env_cfg, "agent": agent_cfg}, overrides)
+        assert env_cfg.scene.terrain is None, task  # every shipped policy with conditions learned on flat ground
 
 
 def test_shipped_policy_conditions_follow_the_policy_file(tmp_path, monkeypatch):
