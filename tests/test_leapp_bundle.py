@@ -2,6 +2,7 @@
 LEAPP's own runtime (`leapp.InferenceManager`) in plain MuJoCo."""
 
 import json
+import re
 from pathlib import Path
 
 import mujoco
@@ -109,7 +110,13 @@ def test_deploy_gives_the_bundles_targets_from_the_io_descriptor_and_policy_onnx
     robot_file = yaml.safe_load(bundle.read_text())["pipeline"]["configs"]["robot"]["robot_model_file"]
     robot = next((r for r in ROBOTS.values() if robot_file in r.model_files), None)
     if robot is None:
-        pytest.skip(f"agile deploy drives {sorted(ROBOTS)}, not the robot of {robot_file}")
+        # agile deploy drives the G1 and the T1: another robot's policy is refused both ways, naming its robot file
+        for other in ROBOTS.values():
+            with pytest.raises(DeployError, match=f"for robot file '{re.escape(robot_file)}'"):
+                read_deploy_bundle(str(bundle), other)
+            with pytest.raises(DeployError, match=f"for robot file '{re.escape(robot_file)}'"):
+                read_deploy_descriptor(paths["io_descriptor"], paths["onnx"], other)
+        return
     try:
         from_bundle = DeployPolicy(read_deploy_bundle(str(bundle), robot), robot)
     except DeployError as err:
