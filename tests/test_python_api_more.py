@@ -29,6 +29,8 @@ MULTI_AGENT_TASK = "MultiRate-G1-T1-Velocity-v0"
     ({"recipe": "slow"}, "recipe must be one of fast (or None), got 'slow'"),
     ({"criteria": {"fall_rate": "low"}}, "criteria: {metric: maximum}, a number each; fall_rate is 'low'"),
     ({"task": "Velocity-Nope-v0"}, "unknown task 'Velocity-Nope-v0'. Registered tasks: "),
+    ({"batch_schedule": [(1000, 1024, 96), (900, 512, 192)]}, "batch_schedule: the iterations must rise"),
+    ({"batch_schedule": [(1000, 1024)]}, "batch_schedule: each entry is (after_iteration >= 0, num_envs >= 1"),
 ])
 def test_time_to_policy_refuses_bad_options_naming_the_field_before_anything_runs(tmp_path, changes, message):
     from agile.run.time_to_policy import time_to_policy
@@ -213,3 +215,28 @@ def test_a_multi_agent_benchmark_from_python_returns_a_row_per_env_count(tmp_pat
     assert row["num_envs"] == 1 and set(row["single_agent"]) == {"g1", "t1"} and row["seconds_per_simulated_s"] > 0
     assert row["ratio_to_sum"] == pytest.approx(row["seconds_per_simulated_s"] / row["sum_of_single_agent_s"])
     assert json.loads(out.read_text())["results"] == json.loads(json.dumps(rows))
+
+
+def test_a_trainings_wall_time_counts_from_the_train_call(tmp_path, monkeypatch):
+    """What `train` does before the env build is in the checkpoints' wall time: on a GPU host its imports (torch with
+    CUDA, Warp, Newton) took 13-19 s that a resumed `agile time_to_policy` run did not count."""
+    import os
+    import time
+
+    import torch
+
+    import agile.run.train as train_module
+
+    ranks = train_module.distributed_rank
+
+    def slow_rank(options):
+        time.sleep(2.0)  # as the imports take on a GPU host, before the env is built
+        return ranks(options)
+
+    monkeypatch.setattr(train_module, "distributed_rank", slow_rank)
+    called = time.time()
+    run = train_module.train(task=TASK, num_envs=2, device="cpu", max_iterations=1, log_root=str(tmp_path),
+                             progress="log", overrides=["agent.num_steps_per_env=2", *FLAT_GROUND_ARGS])
+    wall_s = torch.load(run.checkpoint, weights_only=True)["infos"]["wall_s"]
+    written_s = os.path.getmtime(run.checkpoint) - called
+    assert wall_s > 2.0 and written_s - wall_s < 0.5, (wall_s, written_s)

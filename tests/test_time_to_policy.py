@@ -149,3 +149,13 @@ def test_a_resumed_runs_first_iteration_is_marked_after_its_checkpoints_time():
     assert first_iteration_wall_s({"first_iteration_s": 22.5, "wall_s_before": 863.8}) == 863.8 + 22.5
     assert first_iteration_wall_s({"first_iteration_s": 22.5, "wall_s_before": 0.0}) == 22.5
     assert first_iteration_wall_s({"first_iteration_s": None, "wall_s_before": 863.8}) is None
+
+
+def test_each_later_legs_start_is_marked_on_the_runs_time_axis():
+    """--batch_schedule: the curve marks where each leg after the first started (its new batch shape)."""
+    from agile.run.time_to_policy_plots import later_legs_wall_s
+
+    legs = [{"started_s": 0.0}, {"started_s": 352.1}, {"started_s": 900.4}]
+    assert later_legs_wall_s({"legs": legs, "wall_s_before": 0.0}) == [352.1, 900.4]
+    assert later_legs_wall_s({"legs": legs[1:], "wall_s_before": 100.0}) == [1000.4]
+    assert later_legs_wall_s({"wall_s_before": 0.0}) == []  # a record from before legs were kept

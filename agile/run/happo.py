@@ -3,7 +3,6 @@ happo_<iteration>.pt in the run folder, evaluated per agent as the per-group PPO
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 from agile.errors import AgileError
@@ -50,7 +49,7 @@ def train(options):
     from agile.run.train import run_configs
     from agile.run.train_options import TrainResult
 
-    started_at = time.time()  # the checkpoints' wall time counts the world build and the kernel compilation
+    started_at = options.started_at  # the checkpoints' wall time counts from the train call: imports, world build
     env_cfg, cfg, device = run_configs(options)
     check_observation_groups(env_cfg, cfg)
     world = make_world(options.task, env_cfg, device)

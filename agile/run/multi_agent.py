@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import os
 import sys
-import time
 from pathlib import Path
 
 from agile.run import task_setup
@@ -76,7 +75,7 @@ def train_multi_agent(options, rank):
     check_train_options(options)
     if rank is not None:
         raise AgileError("--distributed trains single-agent tasks; a multi-agent task trains on one device")
-    started_at = time.time()  # the checkpoints' wall time counts the world build and the kernel compilation
+    started_at = options.started_at  # the checkpoints' wall time counts from the train call: imports, world build
     env_cfg, agent_cfg, device = run_configs(options)
     init_files = group_files(options.init_policy, agent_cfg.groups, "--init_policy")
     init_contents = {g: task_setup.read_checkpoint(p, options.trust_checkpoint) for g, p in init_files.items()}

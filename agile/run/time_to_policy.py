@@ -7,6 +7,8 @@ task's criteria (agile/tasks/catalogue.py), with the curve of its evaluations ag
         --log_root t1_runs --out t1_ship                                          # its ship bar; the run kept
     agile time_to_policy --task Velocity-T1-v0 --target shippable --budget_s 1500 --evaluate_after_training \
         --resume t1_runs/<experiment>/<run>/model_4000.pt --out t1_ship_2        # on from there, its time counted in
+    agile time_to_policy --task Velocity-T1-v0 --target shippable --budget_s 1800 --evaluate_after_training \
+        --batch_schedule 1000:1024x96 --out t1_ship_legs   # after iteration 1,000: 1,024 envs x 96 steps
 
 The training runs as a child process (`agile train`, or torchrun over --gpus GPUs with --distributed) and saves a
 checkpoint every --save_interval iterations; this process evaluates the newest checkpoint on the training's first
@@ -44,6 +46,7 @@ from agile.run.time_to_policy_judge import (TARGETS, check_target, climb_in_word
                                             recorded_wall_s)
 from agile.run.time_to_policy_run import TimeToPolicyOptions, run_until_criteria
 from agile.run.time_to_policy_plots import outcome, plot, seed_name
+from agile.run.training_legs import SCHEDULE_FORM, check_batch_schedule, parse_batch_schedule
 
 
 def seed_summary(results: list[dict]) -> dict:
@@ -67,7 +70,7 @@ def time_to_policy_options(*, task: str, budget_s: float, seed: int | None = Non
                            eval_device: str | None = None, eval_episode_length_s: float | None = None,
                            evaluate_after_training: bool = False, criteria: dict | None = None,
                            target: str = "criteria", resume: str | None = None, recipe: str | None = None,
-                           overrides=()) -> tuple[TimeToPolicyOptions, list]:
+                           overrides=(), batch_schedule=()) -> tuple[TimeToPolicyOptions, list]:
     """The checked options of `time_to_policy` (see it) and the seeds to run, one after another (`[seed]` without
     `seeds`); raises AgileError naming the field for what it refuses, before anything runs."""
     from agile.run.recipes import RECIPES
@@ -105,7 +108,8 @@ def time_to_policy_options(*, task: str, budget_s: float, seed: int | None = Non
         save_interval=save_interval, max_iterations=max_iterations, eval_num_envs=eval_num_envs,
         eval_device=eval_device, eval_episode_length_s=eval_episode_length_s,
         evaluate_after_training=evaluate_after_training, criteria=dict(criteria) if criteria else None,
-        target=target, resume=resume, recipe=recipe, overrides=(*RECIPES.get(recipe, ()), *overrides))
+        target=target, resume=resume, recipe=recipe, overrides=(*RECIPES.get(recipe, ()), *overrides),
+        batch_schedule=check_batch_schedule(batch_schedule))
     return options, list(seeds) if seeds is not None else [seed]
 
 
@@ -114,7 +118,7 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
                    max_iterations: int = 100_000, eval_num_envs: int | None = None, eval_device: str | None = None,
                    eval_episode_length_s: float | None = None, evaluate_after_training: bool = False,
                    criteria: dict | None = None, target: str = "criteria", resume: str | None = None,
-                   log_root: str | None = None, recipe: str | None = None, overrides=()) -> dict:
+                   log_root: str | None = None, recipe: str | None = None, overrides=(), batch_schedule=()) -> dict:
     """Train `task` from scratch for `budget_s` seconds of wall time (a child process: `agile train`, or torchrun over
     `gpus` GPUs of this host, or CPU ranks with `device` "cpu"; `num_envs` per GPU, a checkpoint every `save_interval`
     iterations) and evaluate its checkpoints against `criteria` ({metric: maximum}; None: the task's, from
@@ -124,7 +128,9 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
     overrides before `overrides`. `seeds`: one run per seed, one after another, instead of one with `seed`.
     `target` "shippable": the task's ship bar instead (its registration's `ship_bar`: the training's mean terrain level,
     the falls on the start rows and over every row). `resume`: a checkpoint to continue (its recorded wall time counted
-    in). `log_root`: a new folder that keeps the training's run (its checkpoints, to resume from; <log_root>/seed<N>
+    in). `batch_schedule`: ((after_iteration, num_envs, num_steps_per_env), ...), the training going on from the
+    checkpoint of each such iteration with that batch shape, a process per leg (agile.run.training_legs; the legs in
+    the result). `log_root`: a new folder that keeps the training's run (its checkpoints, to resume from; <log_root>/seed<N>
     with `seeds`); default a temporary one, deleted at the end.
 
     Writes <out>.json (the result), <out>.log (the training's output) and, with matplotlib, <out>.png (the curve);
@@ -138,7 +144,7 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
         save_interval=save_interval, max_iterations=max_iterations, eval_num_envs=eval_num_envs,
         eval_device=eval_device, eval_episode_length_s=eval_episode_length_s,
         evaluate_after_training=evaluate_after_training, criteria=criteria, target=target, resume=resume,
-        recipe=recipe, overrides=overrides)
+        recipe=recipe, overrides=overrides, batch_schedule=batch_schedule)
     if log_root is not None and Path(log_root).exists() and (not Path(log_root).is_dir()
                                                              or any(Path(log_root).iterdir())):
         raise AgileError(f"log_root: {log_root} is not an empty folder; give a new one (the run's checkpoints go "
@@ -247,6 +253,9 @@ def main(argv=None) -> int:
                              "the start rows and over every row)")
     parser.add_argument("--resume", default=None, metavar="CHECKPOINT",
                         help="continue this checkpoint's training, its recorded wall time counted in")
+    parser.add_argument("--batch_schedule", nargs="+", default=None, metavar="ITERATION:ENVSxSTEPS",
+                        help=f"go on with another batch shape after an iteration, from its checkpoint (a training "
+                             f"process per leg): {SCHEDULE_FORM}")
     parser.add_argument("--log_root", default=None,
                         help="a new folder to keep the run in (its checkpoints, to resume; default: deleted)")
     parser.add_argument("--out", required=True, help="write <out>.json and <out>.png (the curve)")
@@ -260,7 +269,8 @@ def main(argv=None) -> int:
         max_iterations=args.max_iterations, eval_num_envs=args.eval_num_envs, eval_device=args.eval_device,
         eval_episode_length_s=args.eval_episode_length_s, evaluate_after_training=args.evaluate_after_training,
         criteria=parse_criteria(args.criterion) if args.criterion else None, target=args.target,
-        resume=args.resume, log_root=args.log_root, recipe=args.recipe, overrides=arguments.given_overrides(args))
+        resume=args.resume, log_root=args.log_root, recipe=args.recipe, overrides=arguments.given_overrides(args),
+        batch_schedule=parse_batch_schedule(args.batch_schedule or []))
     return 0 if criteria_met(result) else 1
 
 

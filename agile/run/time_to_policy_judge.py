@@ -38,6 +38,13 @@ def recorded_wall_s(checkpoint: str) -> float:
     return float(wall_s)
 
 
+def recorded_iteration(checkpoint: str) -> int:
+    """The iteration a checkpoint was written at (rsl-rl's "iter")."""
+    from agile.rl.checkpoints import load_checkpoint
+
+    return int(load_checkpoint(checkpoint)["iter"])
+
+
 def evaluator(task: str, overrides: list[str], device: str, num_envs: int | None = None,
               episode_length_s: float | None = None, seed: int | None = None, eval_overrides=()):
     """A function (checkpoint path -> eval.py's metrics) over one env in the task's evaluation setting (the catalogue's

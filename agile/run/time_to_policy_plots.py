@@ -3,6 +3,8 @@ seed, and its verdict in words."""
 
 from __future__ import annotations
 
+import textwrap
+
 CURVE_METRICS = ("fall_rate", "lin_vel_error_mps", "ang_vel_error_radps", "base_height_error_m",
                  "all_rows_fall_rate", "mean_terrain_level")
 """The metrics each evaluation row keeps and the curve draws, those the task measures (the last two: a ship bar's)."""
@@ -28,6 +30,11 @@ def first_iteration_wall_s(result: dict) -> float | None:
     return result.get("wall_s_before", 0.0) + result["first_iteration_s"]
 
 
+def later_legs_wall_s(result: dict) -> list[float]:
+    """Where each leg after the first (a --batch_schedule switch) started on the curve's time axis."""
+    return [result.get("wall_s_before", 0.0) + leg["started_s"] for leg in result.get("legs", [])[1:]]
+
+
 def plot(results: list[dict], path: str, title: str) -> bool:
     """The curve of each evaluated metric against wall time into `path`, one line per run (seed); False (no file)
     when no checkpoint was evaluated (none written within the budget)."""
@@ -48,6 +55,8 @@ def plot(results: list[dict], path: str, title: str) -> bool:
             first_s = first_iteration_wall_s(result)
             if first_s is not None:
                 ax.axvline(first_s, color=line.get_color(), ls=":")
+            for leg_s in later_legs_wall_s(result):
+                ax.axvline(leg_s, color=line.get_color(), ls="--")
         if metric in results[0]["criteria"]:
             ax.axhline(results[0]["criteria"][metric], color="r", label="maximum")
         if metric in results[0].get("minima", {}):
@@ -55,7 +64,9 @@ def plot(results: list[dict], path: str, title: str) -> bool:
         ax.set_xlabel("training wall time [s]")
         ax.set_title(metric)
     axes[0][0].legend(fontsize=6)
-    fig.suptitle(f"{title} ({results[0]['gpus']} GPU(s); dotted: first iteration)")
+    legs = "; dashed: a new batch shape" if any(later_legs_wall_s(r) for r in results) else ""
+    words = f"{title} ({results[0]['gpus']} GPU(s); dotted: first iteration{legs})"
+    fig.suptitle(textwrap.fill(words, width=int(58 * len(metrics))), fontsize=9)  # the title fits one panel
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -4,15 +4,13 @@ the judging of its checkpoints as they come or after it, into the run's result."
 from __future__ import annotations
 
 import dataclasses
-import os
-import signal
-import subprocess
 import time
 from pathlib import Path
 
 from agile.run import train_options
 from agile.run.time_to_policy_judge import (CheckpointJudge, all_checkpoints, climb, criteria_of, newest_checkpoint,
-                                            recorded_wall_s)
+                                            recorded_iteration, recorded_wall_s)
+from agile.run.training_legs import TrainingLegs, plan_legs
 
 FIRST_ITERATION_MARK = "Learning iteration"
 """What rsl-rl's log prints for every iteration (the training runs with --progress log)."""
@@ -41,6 +39,8 @@ class TimeToPolicyOptions:
     resume: str | None = None
     recipe: str | None = None
     overrides: tuple = ()
+    batch_schedule: tuple = ()
+    """(after_iteration, num_envs, num_steps_per_env) of each later leg (agile.run.training_legs)."""
 
 
 def training_command(options: TimeToPolicyOptions, log_root: str) -> list[str]:
@@ -72,10 +72,11 @@ def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Pa
     after every evaluation ("evaluating"), so that a run cut off (a machine taken away) leaves a record of it."""
     criteria, minima = criteria_of(options.task, options.target, options.criteria)
     wall_s_before = 0.0 if options.resume is None else recorded_wall_s(options.resume)
+    legs = plan_legs(options.batch_schedule, num_envs=options.num_envs, max_iterations=options.max_iterations,
+                     resumed_iteration=None if options.resume is None else recorded_iteration(options.resume))
     start, start_epoch = time.monotonic(), time.time()
-    with open(log_path, "w") as log:
-        process = subprocess.Popen(training_command(options, log_root), stdout=log, stderr=subprocess.STDOUT,
-                                   start_new_session=True)
+    process = TrainingLegs(options, legs, lambda leg_options: training_command(leg_options, log_root), log_root,
+                           log_path, start)
     first_iteration_s = wait_for_first_iteration(log_path, process, start, options.budget_s)
     judge = CheckpointJudge(options, criteria, minima, options.eval_device or options.device, start_epoch,
                             wall_s_before)
@@ -88,6 +89,7 @@ def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Pa
                               else f"beside it, on {judge.device}"),
                 "target": options.target, "criteria": criteria, "minima": minima,
                 "resumed_from": options.resume, "wall_s_before": wall_s_before, "status": status,
+                "batch_schedule": [list(entry) for entry in options.batch_schedule], "legs": process.records,
                 "first_iteration_s": None if first_iteration_s is None else round(first_iteration_s, 1),
                 "time_to_policy_s": met_at["wall_s"] if met_at else None,
                 "iteration_at_criteria": met_at["iteration"] if met_at else None,
@@ -115,9 +117,7 @@ def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Pa
         else:
             met_at = judge_as_they_come(options, judge, process, start, log_root, progress)
     finally:
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGTERM)
-            process.wait(timeout=60)
+        process.stop()
     if options.evaluate_after_training:
         for iteration, path in all_checkpoints(log_root):
             row = judge(iteration, path)

@@ -61,6 +61,7 @@ def train(*, task: str, num_envs: int | None = None, device: str | None = None, 
     resolved configs go to <log_root>/<experiment>/<time>_<run_name>/. `progress`: "bar" | "log" (rsl-rl's block every
     iteration) | "auto" (the bar on a terminal). Raises AgileError for what it refuses (the field and its valid values
     named), before anything is built; Ctrl-C saves a checkpoint of where the run was before it ends the run."""
+    started_at = time.time()  # before the imports the run needs: the user waits for them too
     task_setup.check_task(task)
     options = TrainOptions(
         task=task, num_envs=num_envs, device=device, seed=seed, rnn=rnn, overrides=tuple(overrides),
@@ -69,7 +70,8 @@ def train(*, task: str, num_envs: int | None = None, device: str | None = None, 
         init_action_std=init_action_std, logger=logger, run_name=run_name, log_root=log_root, video=video,
         video_interval=video_interval, video_length=video_length, inject_nan_actions=inject_nan_actions,
         progress=progress, full_log_every=full_log_every, teacher=teacher, distributed=distributed,
-        trust_checkpoint=trust_checkpoint, collect_datasets_anew=collect_datasets_anew, trainer=trainer)
+        trust_checkpoint=trust_checkpoint, collect_datasets_anew=collect_datasets_anew, trainer=trainer,
+        started_at=started_at)
     check_options(options)
     check_trainer(options)
     rank, rank_device = distributed_rank(options)
@@ -184,7 +186,6 @@ def save_interrupted(runner, log_dir: str | None) -> str | None:
 
 def train_single_agent(options: TrainOptions, rank) -> TrainResult:
     """`train` for every kind but multi-agent (`agile.run.task_kinds`)."""
-    started_at = time.time()  # the checkpoints' wall time counts the env build and the kernel compilation
     env_cfg, agent_cfg, device = run_configs(options, rank)
     start = starting_point(options, agent_cfg)
     if start["resume_contents"] is not None:
@@ -199,7 +200,7 @@ def train_single_agent(options: TrainOptions, rank) -> TrainResult:
     if rank is None or rank.is_main:
         log_dir = task_setup.new_log_dir(options.log_root, agent_cfg.experiment_name, agent_cfg.run_name)
         task_setup.dump_configs(log_dir, env_cfg, agent_cfg)
-    runner = build_runner(options, env, agent_cfg, log_dir, started_at)
+    runner = build_runner(options, env, agent_cfg, log_dir, options.started_at)
     restore_start(runner, env, agent_cfg, start, options, log_dir)
     try:
         learn(runner, env_cfg, agent_cfg, device, options, log_dir, start)

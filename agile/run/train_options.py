@@ -40,6 +40,9 @@ class TrainOptions:
     trust_checkpoint: bool = False
     collect_datasets_anew: bool = False
     trainer: str = "rsl_rl"
+    started_at: float | None = None
+    """time.time() when `train` was called: the checkpoints' wall time counts from there, so that the simulator's and
+    torch's imports (13-19 s on a GPU host), the env build and the kernel compilation are in it."""
 
 
 @dataclasses.dataclass(frozen=True)
