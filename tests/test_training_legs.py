@@ -2,6 +2,7 @@
 checkpoint of the one before, timed as one run."""
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -9,6 +10,7 @@ from commands import FLAT_GROUND_ARGS, run_command
 
 from agile.errors import AgileError
 from agile.run.time_to_policy import main
+from agile.run.time_to_policy_run import TimeToPolicyOptions
 from agile.run.training_legs import Leg, check_batch_schedule, leg_arguments, parse_batch_schedule, plan_legs
 
 
@@ -94,3 +96,67 @@ def test_a_run_in_two_legs_goes_on_from_the_switch_with_the_new_shape_timed_as_o
     assert "leg 2 of 2: after iteration 1, 3 envs, resuming" in log
     assert "Total steps: 4" in log and "Total steps: 9" in log  # 2 envs x 2 steps, then 3 envs x 3 steps
     assert result["batch_schedule"] == [[1, 3, 3]]
+
+
+
+LEG_OPTIONS = TimeToPolicyOptions(task="Velocity-T1-v0", budget_s=60.0, device="cpu", num_envs=2)
+FAKE_LEG = """
+import pathlib, sys
+iterations, resumed, log_root = int(sys.argv[1]), sys.argv[2], pathlib.Path(sys.argv[3])
+# where agile train writes the checkpoint of its last iteration: a new run folder under the log root
+run = log_root / "exp" / f"run{len(list(log_root.glob('exp/*')))}"
+run.mkdir(parents=True)
+last = iterations - 1 if resumed == "None" else int(resumed.rsplit("_", 1)[1][:-3]) + iterations
+(run / f"model_{last}.pt").write_text("")
+"""
+
+
+def legs_of(tmp_path, script: str, schedule=((1, 3, 3),)):
+    """TrainingLegs of a run whose every leg is a small Python process given its iterations, the checkpoint it
+    resumes and the log root."""
+    import sys
+    import time
+
+    from agile.run.training_legs import TrainingLegs
+
+    def command_of(leg_options):
+        return [sys.executable, "-c", script, str(leg_options.max_iterations), str(leg_options.resume), str(tmp_path)]
+
+    planned = plan_legs(schedule, num_envs=2, max_iterations=8, resumed_iteration=None)
+    return TrainingLegs(LEG_OPTIONS, planned, command_of, str(tmp_path), tmp_path / "legs.log", time.monotonic())
+
+
+def wait_for_end(legs, timeout_s: float = 60.0):
+    import time
+
+    deadline = time.monotonic() + timeout_s
+    while (code := legs.poll()) is None:
+        assert time.monotonic() < deadline, "the legs did not end"
+        time.sleep(0.05)
+    return code
+
+
+def test_each_leg_after_one_that_ends_well_resumes_its_newest_checkpoint(tmp_path):
+    legs = legs_of(tmp_path, FAKE_LEG, schedule=((1, 3, 3), (4, 4, 4)))
+    assert wait_for_end(legs) == 0
+    assert [(r["after_iteration"], r["iterations"], r["num_envs"]) for r in legs.records] == \
+        [(-1, 2, 2), (1, 3, 3), (4, 3, 4)]  # 8 iterations in all: 0-1, 2-4, 5-7
+    assert [r["resumed_from"] and Path(r["resumed_from"]).name for r in legs.records] == \
+        [None, "model_1.pt", "model_4.pt"]
+    assert sorted(p.name for p in tmp_path.glob("exp/*/model_*.pt")) == ["model_1.pt", "model_4.pt", "model_7.pt"]
+    assert "leg 3 of 3: after iteration 4, 4 envs" in (tmp_path / "legs.log").read_text()
+
+
+def test_a_leg_that_fails_ends_the_run_with_its_exit_code(tmp_path):
+    legs = legs_of(tmp_path, "raise SystemExit(3)")
+    assert wait_for_end(legs) == 3 and len(legs.records) == 1  # no second leg after a failed first
+
+
+def test_stopping_ends_the_running_leg_and_starts_no_other(tmp_path):
+    import time
+
+    legs = legs_of(tmp_path, "import time; time.sleep(60)")
+    started = time.monotonic()
+    legs.stop()
+    assert time.monotonic() - started < 30 and legs.process.poll() is not None
+    assert legs.poll() is not None and len(legs.records) == 1
