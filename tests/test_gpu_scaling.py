@@ -36,6 +36,7 @@ def test_two_cpu_ranks_are_timed_from_their_checkpoints_with_the_allreduce_alone
     ({"gpus": [1], "device": "cpu", "iterations": 20, "save_interval": 10}, "iterations must be at least 30, got 20"),
     ({"gpus": [1], "device": "cpu", "recipe": "fastest"}, "recipe must be one of"),
     ({"gpus": [1], "device": "cpu", "timeout_s": 0}, "timeout_s must be positive, got 0"),
+    ({"gpus": [1], "device": "cpu", "overrides": ["agent.algorithm.nope=1"]}, "has no field 'nope'"),
 ])
 def test_bad_input_is_refused_naming_the_field(kwargs, message, tmp_path):
     with pytest.raises(AgileError, match=re.escape(message)):

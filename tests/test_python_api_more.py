@@ -31,6 +31,7 @@ MULTI_AGENT_TASK = "MultiRate-G1-T1-Velocity-v0"
     ({"task": "Velocity-Nope-v0"}, "unknown task 'Velocity-Nope-v0'. Registered tasks: "),
     ({"batch_schedule": [(1000, 1024, 96), (900, 512, 192)]}, "batch_schedule: the iterations must rise"),
     ({"batch_schedule": [(1000, 1024)]}, "batch_schedule: each entry is (after_iteration >= 0, num_envs >= 1"),
+    ({"overrides": ["agent.nope=1"]}, "'agent' has no field 'nope'. Fields: "),  # was the training's error, unseen
 ])
 def test_time_to_policy_refuses_bad_options_naming_the_field_before_anything_runs(tmp_path, changes, message):
     from agile.run.time_to_policy import time_to_policy

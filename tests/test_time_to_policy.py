@@ -48,6 +48,23 @@ def test_several_ranks_train_through_torchrun_on_the_cpu(tmp_path, capsys):
     assert "rank 1 of 2 on cpu" in log and "all 2 ranks hold the same weights" in log
 
 
+@pytest.mark.slow
+def test_a_training_that_fails_is_reported_as_failed_naming_its_output(tmp_path, capsys):
+    """A training process that ended with an error was reported as "criteria not met within 300 s", as if the time
+    had run out."""
+    broken = tmp_path / "broken.pt"
+    torch.save({"iter": 3, "infos": {"wall_s": 5.0}}, broken)  # no weights: the training cannot resume it
+    out = tmp_path / "failed"
+    code = main(["--task", "Velocity-T1-v0", "--budget_s", "300", "--num_envs", "2", "--device", "cpu",
+                 "--resume", str(broken), "--evaluate_after_training", "--criterion", "fall_rate=1.0",
+                 "--out", str(out), *FLAT_GROUND_ARGS])
+    result = json.loads(out.with_suffix(".json").read_text())
+    assert code == 1 and result["training_exit_code"] not in (None, 0) and result["evaluations"] == []
+    printed = capsys.readouterr().out
+    assert f"the training failed (exit code {result['training_exit_code']})" in printed, printed
+    assert f"(the training's output: {out}.log)" in printed
+
+
 def test_a_run_without_an_evaluated_checkpoint_writes_no_curve(tmp_path):
     """A budget too short for a first checkpoint: the JSON says so and the curve is skipped (a plot of no metric
     was a matplotlib error after the whole run)."""
@@ -132,6 +149,10 @@ def test_the_curve_title_says_whether_the_criteria_were_met():
     assert outcome(missed) == "criteria not met within 420 s"
     assert outcome({**missed, "time_to_policy_s": 287.4, "iteration_at_criteria": 650}) == \
         "time to policy 287 s (iteration 650)"
+    # a training that ended by itself: its iterations done, or failed (was "not met within 420 s" either way)
+    assert outcome({**missed, "training_exit_code": 0}) == \
+        "criteria not met by the training's last iteration (within 420 s)"
+    assert outcome({**missed, "training_exit_code": 2}) == "criteria not met: the training failed (exit code 2)"
 
 
 def test_a_run_without_a_seed_is_named_by_the_tasks_seed_not_none():

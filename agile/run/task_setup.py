@@ -121,6 +121,12 @@ def load_task(*, task: str, num_envs: int | None = None, device: str | None = No
     return TaskConfigs(env_cfg, agent_cfg, device)
 
 
+def check_overrides(*, task: str, overrides: typing.Sequence[str]) -> None:
+    """Raise the ConfigError (an AgileError) naming the field that one of `overrides` gets wrong, as `agile train`
+    would on reading them: for a command that starts the training as a process of its own, before it does."""
+    load_task(task=task, device="cpu", num_envs=1, overrides=overrides)
+
+
 def check_writable(path: str, field: str) -> None:
     """Refuse (AgileError naming `field`) a path that cannot be written: under a file, or in a folder that exists
     and may not be written (a folder still to make is made by the command, under the nearest one that exists)."""

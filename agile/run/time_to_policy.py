@@ -93,6 +93,7 @@ def time_to_policy_options(*, task: str, budget_s: float, seed: int | None = Non
         if not isinstance(maximum, (int, float)):
             raise AgileError(f"criteria: {{metric: maximum}}, a number each; {name} is {maximum!r}")
     check_target(task, target, criteria)
+    task_setup.check_overrides(task=task, overrides=(*RECIPES.get(recipe, ()), *overrides))
     if resume is not None:
         if seeds is not None:
             raise AgileError("resume and seeds: a resumed run continues one training (give its seed)")
@@ -176,10 +177,10 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
         if met is None and pace is not None:
             print(f"[agile] mean terrain level {pace['mean_terrain_level']:g} at {pace['to_wall_s']:g} s, "
                   f"{climb_in_words(pace, result['minima']['mean_terrain_level'])}", flush=True)
-        print(f"[agile] {task}, {seed_name(run_seed)}: " + (
-            f"criteria met at {met} s (iteration {result['iteration_at_criteria']})" if met is not None
-            else f"criteria not met within {budget_s:g} s") + f"; first iteration at "
-              f"{result['first_iteration_s']} s; {run_out}.json", flush=True)
+        failed = result["training_exit_code"] not in (None, 0)
+        print(f"[agile] {task}, {seed_name(run_seed)}: {outcome(result)}; first iteration at "
+              f"{result['first_iteration_s']} s; {run_out}.json" + (f" (the training's output: {run_out}.log)"
+                                                                      if failed else ""), flush=True)
         results.append(result)
     written = results[0]
     title = f"{task}: {outcome(results[0])}"

@@ -90,6 +90,7 @@ def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Pa
                 "target": options.target, "criteria": criteria, "minima": minima,
                 "resumed_from": options.resume, "wall_s_before": wall_s_before, "status": status,
                 "batch_schedule": [list(entry) for entry in options.batch_schedule], "legs": process.records,
+                "training_exit_code": process.exit_code,  # None: it ran on until stopped (budget or criteria)
                 "first_iteration_s": None if first_iteration_s is None else round(first_iteration_s, 1),
                 "time_to_policy_s": met_at["wall_s"] if met_at else None,
                 "iteration_at_criteria": met_at["iteration"] if met_at else None,

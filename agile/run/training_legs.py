@@ -95,6 +95,9 @@ class TrainingLegs:
         self.records: list[dict] = []
         """Each leg started: its shape, the checkpoint it resumed and when it started [s from the run's start]."""
         self.process = None
+        self.exit_code: int | None = None
+        """How the training ended by itself: 0 after its last leg, a failed leg's code; None while it runs or when
+        `stop` ended it."""
         self.start_leg(options.resume)
 
     def start_leg(self, resume: str | None) -> None:
@@ -113,11 +116,12 @@ class TrainingLegs:
 
     def poll(self) -> int | None:
         code = self.process.poll()
-        if code != 0 or len(self.records) == len(self.legs):
-            return code
+        if code is None:
+            return None
         newest = newest_checkpoint(self.log_root)
-        if newest is None:
-            return code  # the leg wrote no checkpoint: nothing to go on from
+        if code != 0 or len(self.records) == len(self.legs) or newest is None:  # none: nothing to go on from
+            self.exit_code = code
+            return code
         self.start_leg(str(newest[1]))
         return None
 
