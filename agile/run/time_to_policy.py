@@ -93,7 +93,8 @@ def time_to_policy_options(*, task: str, budget_s: float, seed: int | None = Non
         if not isinstance(maximum, (int, float)):
             raise AgileError(f"criteria: {{metric: maximum}}, a number each; {name} is {maximum!r}")
     check_target(task, target, criteria)
-    task_setup.check_overrides(task=task, overrides=(*RECIPES.get(recipe, ()), *overrides))
+    if recipe is not None or overrides:
+        task_setup.check_overrides(task=task, overrides=(*RECIPES.get(recipe, ()), *overrides))
     if resume is not None:
         if seeds is not None:
             raise AgileError("resume and seeds: a resumed run continues one training (give its seed)")
