@@ -1,5 +1,6 @@
-"""One timed training of `agile time_to_policy` (agile/run/time_to_policy.py): the child process that trains, and
-the judging of its checkpoints as they come or after it, into the run's result."""
+"""One timed training of `agile time_to_policy` (agile/run/time_to_policy.py): the child processes that train (one,
+or one per leg of a batch schedule: agile/run/training_legs.py), and the judging of their checkpoints as they come or
+after them, into the run's result."""
 
 from __future__ import annotations
 
@@ -66,8 +67,8 @@ def wait_for_first_iteration(log_path: Path, process, start: float, budget_s: fl
 
 
 def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Path, report=None) -> dict:
-    """Train in a child process (its output in `log_path`, its run under `log_root`) until a checkpoint meets the
-    criteria or the budget is spent; the run's result (what <out>.json holds, less the device and commit).
+    """Train in child processes, one per leg (their output in `log_path`, their runs under `log_root`), until a
+    checkpoint meets the criteria, the budget is spent or the training ends; the run's result (what <out>.json holds, less the device and commit).
     `report(result)`, where given, receives the result so far at every new checkpoint ("status" "training") and
     after every evaluation ("evaluating"), so that a run cut off (a machine taken away) leaves a record of it."""
     criteria, minima = criteria_of(options.task, options.target, options.criteria)
