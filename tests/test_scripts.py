@@ -75,6 +75,18 @@ def test_help_of_every_command(command, capsys):
             and "terrain=null" in out, out
 
 
+def test_the_examples_in_every_commands_help_keep_their_line_breaks():
+    """A backslash ending an example line of a command's docstring joined the two lines in --help ("...training
+    --log_root" run together with the spaces of the indent); the docstrings write it as the shell does, "\\"."""
+    import importlib
+
+    from agile.cli import FORWARDED
+
+    joined = {name: re.findall(r"\S {4,}--\w+", importlib.import_module(f"agile.run.{name}").__doc__ or "")
+              for name in FORWARDED}
+    assert not {name: found for name, found in joined.items() if found}
+
+
 @pytest.mark.parametrize("argv", [
     ("scripts/play.py", "--checkpoint", "missing.pt"),
     ("scripts/eval.py", "--checkpoint", "missing.pt"),

@@ -1,7 +1,7 @@
 """Where a policy settles for fixed values of a command that measures its own error (`CommandTerm.command_error`:
 HeightTracking-G1's height command), one value per env:
 
-    agile eval --task HeightTracking-G1-v0 --checkpoint model.pt --num_envs 256 --episode_length_s 15 \
+    agile eval --task HeightTracking-G1-v0 --checkpoint model.pt --num_envs 256 --episode_length_s 15 \\
         --sweep_command 0.1 0.3 0.5 0.7 0.92 --out heights.json
 
 Each env holds one of the values (env i: value i mod values) for all its episodes; the value the command measures

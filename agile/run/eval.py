@@ -3,9 +3,9 @@
     agile eval --task Velocity-G1-History-v0 --num_envs 256 --num_episodes 2   # shipped policy
     agile eval --task Velocity-T1-v0 --checkpoint model.pt --device cpu --num_envs 2 --out eval.json
     agile eval --task Velocity-G1-History-v0 --device cpu --num_envs 2 --command 0.5 0 0   # walk
-    agile eval --task Velocity-Height-G1-v0 --num_envs 1024 --sweep_lin_vel_x -0.5 0 0.5 \
+    agile eval --task Velocity-Height-G1-v0 --num_envs 1024 --sweep_lin_vel_x -0.5 0 0.5 \\
         --sweep_base_height 0.4 0.56 0.72 --out sweep.json                      # a table and sweep.png
-    agile eval --task HeightTracking-G1-v0 --num_envs 256 --episode_length_s 15 \
+    agile eval --task HeightTracking-G1-v0 --num_envs 256 --episode_length_s 15 \\
         --sweep_command 0.1 0.3 0.5 0.7 0.92 --out heights.json                # where it settles per height
 
 Each env runs `--num_episodes` episodes of `--episode_length_s` (pushes off unless --pushes); commands are drawn by

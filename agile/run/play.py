@@ -6,7 +6,7 @@
     agile play --task Velocity-G1-History-v0 --viewer viser   # browser viewer on http://localhost:8080
     agile play --task Debug-G1-v0        # joint sliders and the mirrored twin, in the browser
     agile play --task PickPlace-G1-Debug-v0 --checkpoint checkpoints/PickPlace-G1-v0_it4450.pt   # a policy, live
-    agile play --task MotionTracking-G1-v0 --checkpoint model.pt --num_envs 1 --num_steps 400 \
+    agile play --task MotionTracking-G1-v0 --checkpoint model.pt --num_envs 1 --num_steps 400 \\
         --video squat.mp4 --video_reference env.commands.motion.start_frame=0 env.episode_length_s=8.0
 
 Without --checkpoint the task's shipped policy runs if agile has one (agile/data/policy/), else

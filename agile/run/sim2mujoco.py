@@ -1,7 +1,7 @@
 """Run an exported policy in plain MuJoCo (the C simulator, CPU), from its IO descriptor and the robot MJCF.
 
     agile export --task Velocity-G1-History-v0 --out exported/g1
-    agile sim2mujoco --io exported/g1/io_descriptor.yaml --policy exported/g1/policy.pt \
+    agile sim2mujoco --io exported/g1/io_descriptor.yaml --policy exported/g1/policy.pt \\
         --command 0.5 0 0 --episodes 3 --duration_s 10
     agile export --task Velocity-T1-v0 --format leapp --out exported/leapp
     agile sim2mujoco --bundle exported/leapp/Velocity-T1-v0/Velocity-T1-v0.yaml --episodes 10 --duration_s 20

@@ -3,11 +3,11 @@ task's criteria (agile/tasks/catalogue.py), with the curve of its evaluations ag
 
     agile time_to_policy --task Velocity-G1-History-v0 --budget_s 600 --out g1_h100
     agile time_to_policy --task Velocity-T1-v0 --budget_s 300 --gpus 4 --out t1_4gpu    # torchrun, ranks on GPUs 0-3
-    agile time_to_policy --task Velocity-T1-v0 --target shippable --budget_s 1500 --evaluate_after_training \
+    agile time_to_policy --task Velocity-T1-v0 --target shippable --budget_s 1500 --evaluate_after_training \\
         --log_root t1_runs --out t1_ship                                          # its ship bar; the run kept
-    agile time_to_policy --task Velocity-T1-v0 --target shippable --budget_s 1500 --evaluate_after_training \
+    agile time_to_policy --task Velocity-T1-v0 --target shippable --budget_s 1500 --evaluate_after_training \\
         --resume t1_runs/<experiment>/<run>/model_4000.pt --out t1_ship_2        # on from there, its time counted in
-    agile time_to_policy --task Velocity-T1-v0 --target shippable --budget_s 1800 --evaluate_after_training \
+    agile time_to_policy --task Velocity-T1-v0 --target shippable --budget_s 1800 --evaluate_after_training \\
         --batch_schedule 1000:1024x96 --out t1_ship_legs   # after iteration 1,000: 1,024 envs x 96 steps
 
 The training runs as a child process (`agile train`, or torchrun over --gpus GPUs with --distributed) and saves a

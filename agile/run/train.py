@@ -3,10 +3,10 @@
     agile train --task Velocity-T1-v0 --num_envs 4096 --max_iterations 3000
     agile train --task Velocity-T1-v0 --resume            # newest checkpoint of the experiment
     agile train --task Velocity-G1-History-v0 --init_policy agile/data/policy/Velocity-G1-History-v0.pt
-    agile train --task Velocity-T1-v0 --init_policy agile/data/policy/Velocity-T1-v0.pt \
+    agile train --task Velocity-T1-v0 --init_policy agile/data/policy/Velocity-T1-v0.pt \\
         --init_action_std 0.3
     agile train --task Velocity-T1-v0 agent.algorithm.learning_rate=5e-4 env.episode_length_s=20
-    agile train --task Velocity-Height-G1-Student-History-v0 \
+    agile train --task Velocity-Height-G1-Student-History-v0 \\
         --init_policy agile/data/policy/Velocity-Height-G1-Student-History-v0.pt     # distil the shipped student on
     torchrun --standalone --nproc_per_node=2 scripts/train.py --task Velocity-T1-v0 --distributed   # 2 GPUs
     agile train --task MultiRate-G1-T1-Velocity-v0 --trainer happo   # HARL's HAPPO (pip install 'agile[harl]')
