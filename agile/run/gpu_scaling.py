@@ -100,8 +100,7 @@ def gpu_scaling(*, task: str, gpus, num_envs: int, out: str, iterations: int = 6
                              f"cpu runs the counts as CPU ranks)")
         device = "cuda:0"  # the one-GPU run's; torchrun's ranks take cuda:LOCAL_RANK
     overrides = (*RECIPES.get(recipe, ()), *overrides)
-    if overrides:
-        task_setup.check_overrides(task=task, overrides=overrides)
+    task_setup.check_overrides(task=task, overrides=overrides)
     task_setup.check_writable(f"{out}.json", "out")
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     rows = []

@@ -123,8 +123,10 @@ def load_task(*, task: str, num_envs: int | None = None, device: str | None = No
 
 def check_overrides(*, task: str, overrides: typing.Sequence[str]) -> None:
     """Raise the ConfigError (an AgileError) naming the field that one of `overrides` gets wrong, as `agile train`
-    would on reading them: for a command that starts the training as a process of its own, before it does."""
-    load_task(task=task, device="cpu", num_envs=1, overrides=overrides)
+    would on reading them: for a command that starts the training as a process of its own, before it does (none
+    given: nothing to read, and no config loaded)."""
+    if overrides:
+        load_task(task=task, device="cpu", num_envs=1, overrides=overrides)
 
 
 def check_writable(path: str, field: str) -> None:

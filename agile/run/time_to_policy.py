@@ -93,8 +93,7 @@ def time_to_policy_options(*, task: str, budget_s: float, seed: int | None = Non
         if not isinstance(maximum, (int, float)):
             raise AgileError(f"criteria: {{metric: maximum}}, a number each; {name} is {maximum!r}")
     check_target(task, target, criteria)
-    if recipe is not None or overrides:
-        task_setup.check_overrides(task=task, overrides=(*RECIPES.get(recipe, ()), *overrides))
+    task_setup.check_overrides(task=task, overrides=(*RECIPES.get(recipe, ()), *overrides))
     if resume is not None:
         if seeds is not None:
             raise AgileError("resume and seeds: a resumed run continues one training (give its seed)")
@@ -132,8 +131,8 @@ def time_to_policy(*, task: str, budget_s: float, out: str, seed: int | None = N
     the falls on the start rows and over every row). `resume`: a checkpoint to continue (its recorded wall time counted
     in). `batch_schedule`: ((after_iteration, num_envs, num_steps_per_env), ...), the training going on from the
     checkpoint of each such iteration with that batch shape, a process per leg (agile.run.training_legs; the legs in
-    the result). `log_root`: a new folder that keeps the training's run (its checkpoints, to resume from; <log_root>/seed<N>
-    with `seeds`); default a temporary one, deleted at the end.
+    the result). `log_root`: a new folder that keeps the training's run (its checkpoints, to resume from;
+    <log_root>/seed<N> with `seeds`); default a temporary one, deleted at the end.
 
     Writes <out>.json (the result), <out>.log (the training's output) and, with matplotlib, <out>.png (the curve);
     with `seeds`, <out>_seed<N>.json and .log per run and the summary over them in <out>.json. Returns what <out>.json

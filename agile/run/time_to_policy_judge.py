@@ -29,20 +29,20 @@ def newest_checkpoint(log_root: str) -> tuple[int, Path] | None:
 
 def recorded_wall_s(checkpoint: str) -> float:
     """The training wall time a checkpoint records (`infos["wall_s"]`); AgileError where it records none."""
+    return recorded_point(checkpoint)[1]
+
+
+def recorded_point(checkpoint: str) -> tuple[int, float]:
+    """(the iteration a checkpoint was written at, the training wall time it records); AgileError where it records
+    no wall time."""
     from agile.rl.checkpoints import load_checkpoint
 
-    wall_s = (load_checkpoint(checkpoint).get("infos") or {}).get("wall_s")
+    contents = load_checkpoint(checkpoint)
+    wall_s = (contents.get("infos") or {}).get("wall_s")
     if wall_s is None:
         raise AgileError(f"resume: {checkpoint} records no training wall time (infos['wall_s']; an older "
                          f"agile train wrote none): the time to policy cannot count on from it")
-    return float(wall_s)
-
-
-def recorded_iteration(checkpoint: str) -> int:
-    """The iteration a checkpoint was written at (rsl-rl's "iter")."""
-    from agile.rl.checkpoints import load_checkpoint
-
-    return int(load_checkpoint(checkpoint)["iter"])
+    return int(contents["iter"]), float(wall_s)
 
 
 def evaluator(task: str, overrides: list[str], device: str, num_envs: int | None = None,

@@ -17,14 +17,14 @@ def seed_name(seed: int | None) -> str:
 
 def outcome(result: dict) -> str:
     """The run's verdict in words, for the plot's title."""
-    code = result.get("training_exit_code")
-    if result["time_to_policy_s"] is None and code not in (None, 0):
-        return f"criteria not met: the training failed (exit code {code})"
-    if result["time_to_policy_s"] is None and code == 0:
-        return f"criteria not met by the training's last iteration (within {result['budget_s']:.0f} s)"
-    if result["time_to_policy_s"] is None:
+    if result["time_to_policy_s"] is not None:
+        return f"time to policy {result['time_to_policy_s']:.0f} s (iteration {result['iteration_at_criteria']})"
+    code = result.get("training_exit_code")  # None: stopped at the budget; 0: its iterations done
+    if code is None:
         return f"criteria not met within {result['budget_s']:.0f} s"
-    return f"time to policy {result['time_to_policy_s']:.0f} s (iteration {result['iteration_at_criteria']})"
+    if code == 0:
+        return f"criteria not met by the training's last iteration (within {result['budget_s']:.0f} s)"
+    return f"criteria not met: the training failed (exit code {code})"
 
 
 def first_iteration_wall_s(result: dict) -> float | None:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from agile.run import train_options
 from agile.run.time_to_policy_judge import (CheckpointJudge, all_checkpoints, climb, criteria_of, newest_checkpoint,
-                                            recorded_iteration, recorded_wall_s)
+                                            recorded_point)
 from agile.run.training_legs import TrainingLegs, plan_legs
 
 FIRST_ITERATION_MARK = "Learning iteration"
@@ -68,13 +68,14 @@ def wait_for_first_iteration(log_path: Path, process, start: float, budget_s: fl
 
 def run_until_criteria(options: TimeToPolicyOptions, log_root: str, log_path: Path, report=None) -> dict:
     """Train in child processes, one per leg (their output in `log_path`, their runs under `log_root`), until a
-    checkpoint meets the criteria, the budget is spent or the training ends; the run's result (what <out>.json holds, less the device and commit).
+    checkpoint meets the criteria, the budget is spent or the training ends; the run's result (what <out>.json
+    holds, less the device and commit).
     `report(result)`, where given, receives the result so far at every new checkpoint ("status" "training") and
     after every evaluation ("evaluating"), so that a run cut off (a machine taken away) leaves a record of it."""
     criteria, minima = criteria_of(options.task, options.target, options.criteria)
-    wall_s_before = 0.0 if options.resume is None else recorded_wall_s(options.resume)
+    resumed_iteration, wall_s_before = (None, 0.0) if options.resume is None else recorded_point(options.resume)
     legs = plan_legs(options.batch_schedule, num_envs=options.num_envs, max_iterations=options.max_iterations,
-                     resumed_iteration=None if options.resume is None else recorded_iteration(options.resume))
+                     resumed_iteration=resumed_iteration)
     start, start_epoch = time.monotonic(), time.time()
     process = TrainingLegs(options, legs, lambda leg_options: training_command(leg_options, log_root), log_root,
                            log_path, start)
